@@ -1,0 +1,72 @@
+"""Make every part of a design and export each as STEP and binary STL."""
+
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import cadquery as cq
+
+from pnmold.cad import molds, parts
+from pnmold.design import Design
+from pnmold.errors import ExportError
+
+log = logging.getLogger(__name__)
+
+#: Part names = file stems of CONTRACTS.md §3, in build order.
+PART_NAMES = ("actuator", "top_layer", "bottom_layer", "paper",
+              "mold_interior", "mold_exterior", "mold_bottom")
+
+#: STL tessellation: absolute chordal deviation (mm) and angular deviation (rad).
+STL_TOLERANCE_MM = 0.005
+STL_ANGULAR_RAD = 0.05
+
+
+def make_parts(design: Design) -> dict[str, cq.Shape]:
+    """Every part as a CadQuery solid, in casting position (CONTRACTS.md §2)."""
+    top = parts.top_layer(design)
+    bottom = parts.bottom_layer(design)
+    return {
+        "actuator": parts.actuator(design, top, bottom),
+        "top_layer": top,
+        "bottom_layer": bottom,
+        "paper": parts.paper(design),
+        "mold_interior": molds.interior_mold(design),
+        "mold_exterior": molds.exterior_mold(design),
+        "mold_bottom": molds.bottom_mold(design),
+    }
+
+
+def _atomic(path: Path, write) -> None:
+    """Write through ``write(tmp_path)`` to a temporary name, then rename over ``path``."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        ok = write(tmp)
+        if ok is False or os.path.getsize(tmp) == 0:
+            raise ExportError(str(path), "the CAD kernel wrote nothing")
+        os.replace(tmp, path)
+    except ExportError:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    except Exception as err:
+        Path(tmp).unlink(missing_ok=True)
+        raise ExportError(str(path), f"export failed: {err}") from err
+
+
+def export_parts(shapes: dict[str, cq.Shape], out_dir: Path) -> dict[str, Path]:
+    """Write ``<name>.step`` and ``<name>.stl`` for every shape; return name.ext -> path."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = {}
+    for name, shape in shapes.items():
+        step, stl = out_dir / f"{name}.step", out_dir / f"{name}.stl"
+        _atomic(step, lambda tmp, s=shape: cq.exporters.export(s, tmp, exportType="STEP"))
+        _atomic(stl, lambda tmp, s=shape: s.exportStl(
+            tmp, tolerance=STL_TOLERANCE_MM, angularTolerance=STL_ANGULAR_RAD,
+            ascii=False, relative=False))
+        written[f"{name}.step"], written[f"{name}.stl"] = step, stl
+        log.debug("exported %s", name)
+    return written

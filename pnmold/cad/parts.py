@@ -1,0 +1,99 @@
+"""The cast parts in the actuator frame: top layer, bottom layer, paper, bonded actuator.
+
+Top layer: each chamber is a block with its own walls (fPN) or one block with shared
+walls (sPN); the cavities open downward onto the bottom layer, and the 1 mm channel runs
+along y = 0 at the bottom, from halfway into the proximal end wall to the last cavity.
+Bottom layer: a slab whose underside carries the dimples of the mold's paper stops; the
+paper lies flush on the mold floor (z = 0) inside it. Actuator: both layers bonded, with
+the inlet punched along +x from the end face into the channel.
+"""
+
+from __future__ import annotations
+
+import cadquery as cq
+
+from pnmold.cad.shapes import box, cut, cylinder_x, fuse
+from pnmold.design import Design
+
+
+def _y(design: Design, half: float | None = None) -> tuple[float, float]:
+    w = design.width_mm / 2 if half is None else half
+    return -w, w
+
+
+def chamber_cores(design: Design) -> list[cq.Shape]:
+    """The air cavities of the chambers (positive boxes), proximal first."""
+    c, z0 = design.chambers, design.top_z0_mm
+    return [box(f"chamber {i + 1} cavity", design.cavity_x_mm(i), _y(design, c.width_mm / 2),
+                (z0, z0 + c.height_mm)) for i in range(c.count)]
+
+
+def channel_core(design: Design) -> cq.Shape:
+    z0 = design.top_z0_mm
+    return box("channel", design.channel_x_mm, _y(design, design.channel.width_mm / 2),
+               (z0, z0 + design.channel.height_mm))
+
+
+def inlet_bore(design: Design) -> cq.Shape:
+    """The 2 mm biopsy punch: from outside the end face along +x into the channel."""
+    r = design.inlet.diameter_mm / 2
+    return cylinder_x("inlet bore", r, (-1.0, design.inlet_depth_mm), 0.0, design.inlet_axis_z_mm)
+
+
+def top_layer_envelope(design: Design) -> cq.Shape:
+    """The box the top layer is cast in (the casting region of the top-layer molds)."""
+    z0 = design.top_z0_mm
+    return box("top layer envelope", (0.0, design.length_mm), _y(design),
+               (z0, z0 + design.top_height_mm))
+
+
+def gap_plates(design: Design) -> list[cq.Shape]:
+    """fPN: the empty gaps between chambers above the floor (the exterior mold's plates)."""
+    if design.kind != "fpn":
+        return []
+    z0 = design.top_z0_mm + design.top_layer.floor_mm
+    z1 = design.top_z0_mm + design.top_height_mm
+    return [box(f"plate {i + 1}", design.gap_x_mm(i), _y(design), (z0, z1))
+            for i in range(design.chambers.count - 1)]
+
+
+def top_layer(design: Design) -> cq.Shape:
+    solid = cut("top layer", top_layer_envelope(design), gap_plates(design))
+    return cut("top layer cavities", solid, [*chamber_cores(design), channel_core(design)])
+
+
+def paper_seat_stops(design: Design) -> list[cq.Shape]:
+    """L-shaped corner stops on the bottom mold's floor that locate the paper sheet."""
+    m, p = design.mold, design.paper
+    px, py = design.paper_size_mm
+    x0, y0, h, w, a = p.inset_mm, -py / 2, m.seat_height_mm, m.seat_width_mm, m.seat_arm_mm
+    stops = []
+    for sx in (0, 1):
+        for sy in (0, 1):
+            cx = x0 + sx * px  # paper corner
+            cy = y0 + sy * py
+            ox = (cx - w, cx) if sx == 0 else (cx, cx + w)  # outside the paper in x
+            oy = (cy - w, cy) if sy == 0 else (cy, cy + w)
+            ax = (cx - w, cx + a) if sx == 0 else (cx - a, cx + w)
+            ay = (cy - w, cy + a) if sy == 0 else (cy - a, cy + w)
+            stops.append(fuse(f"paper stop {2 * sx + sy + 1}", [
+                box("paper stop arm x", ax, oy, (0.0, h)),
+                box("paper stop arm y", ox, ay, (0.0, h))]))
+    return stops
+
+
+def bottom_layer(design: Design) -> cq.Shape:
+    slab = box("bottom layer", (0.0, design.length_mm), _y(design),
+               (0.0, design.bottom_layer.thickness_mm))
+    return cut("bottom layer stops", slab, paper_seat_stops(design))
+
+
+def paper(design: Design) -> cq.Shape:
+    px, py = design.paper_size_mm
+    return box("paper", (design.paper.inset_mm, design.paper.inset_mm + px), (-py / 2, py / 2),
+               (0.0, design.paper.thickness_mm))
+
+
+def actuator(design: Design, top: cq.Shape, bottom: cq.Shape) -> cq.Shape:
+    bonded = fuse("bonded actuator", [top, bottom])
+    return cut("inlet punch", bonded, [inlet_bore(design)])

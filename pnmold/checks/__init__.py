@@ -1,0 +1,1 @@
+"""Design-rule checks on the exported files (trimesh, manifold3d); they report, never raise."""

@@ -1,0 +1,95 @@
+"""The ``pnmold`` command line: parses, dispatches to one handler per verb, maps errors to
+exit codes (CONTRACTS.md §1): 0 success, 1 a design-rule check failed, 2 bad usage or
+input, 3 a geometry, meshing or solver failure."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Callable, Sequence
+
+from rich.console import Console
+from rich.markup import escape
+
+from pnmold.errors import PnmoldError
+
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+out_console = Console(highlight=False, soft_wrap=True)
+
+
+def _progress(args) -> Callable[[str], None]:
+    if args.quiet:
+        return lambda stage: None
+    return lambda stage: err_console.print(f"[dim]…[/dim] {stage}")
+
+
+def cmd_build(args) -> int:
+    from pnmold.design import load_design
+    from pnmold.pipeline import build
+
+    design = load_design(args.design, args.set)
+    result = build(design, args.out, fem=not args.no_fem, progress=_progress(args))
+    if not args.quiet:
+        out_console.print(f"wrote {result.out_dir}/ ({len(result.report['parts'])} parts as "
+                          f"STEP and STL, design.toml, report.json)")
+    for check in result.failed_checks:
+        err_console.print(f"[red]FAILED[/red] {check['id']}: {escape(check['message'])}")
+    return result.exit_code
+
+
+def cmd_templates(args) -> int:
+    from pnmold.design import list_templates
+
+    for name, description in list_templates().items():
+        out_console.print(f"{name:<14} {escape(description)}")
+    return 0
+
+
+def _add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:
+    if default is None:
+        parser.add_argument("design", help="template name (see `pnmold templates`) or TOML file")
+    else:
+        parser.add_argument("design", nargs="?", default=default,
+                            help=f"template name or TOML file (default {default})")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override a design field (repeatable)")
+
+
+def make_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="pnmold", description=(
+        "PneuNet bending actuators: casting molds, design-rule checks, quick FE, diagnosis."))
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
+
+    p = sub.add_parser("build", help="CAD, export, checks, quick FE into out/<design>/",
+                       description="Build the actuator and its three molds as STEP and STL.")
+    _add_design(p, default="fpn")
+    p.add_argument("--out", metavar="DIR", help="output folder (default out/<design-name>/)")
+    p.add_argument("--no-fem", action="store_true", help="skip the quick FE solve")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(handler=cmd_build)
+
+    p = sub.add_parser("templates", help="list the design templates",
+                       description="List the design templates with one line each.")
+    p.set_defaults(handler=cmd_templates)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = make_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help -> 0, bad usage -> 2
+        return int(exc.code or 0)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.handler(args)
+    except PnmoldError as err:
+        err_console.print(f"[red]error[/red] ({type(err).__name__}): {escape(str(err))}")
+        return err.exit_code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,287 @@
+"""The design of a PneuNet actuator and its molds: frozen dataclasses, units in names.
+
+Defaults describe the supplement's fast PneuNet (fPN). Every number either cites its
+source or says ``assumed``: the supplement (Mosadegh et al., Adv. Funct. Mater. 2014, SI)
+gives the chamber height (10.5 mm), the channel height (1 mm), the inside walls (1 mm),
+the Yeoh constants of Elastosil M4601, the paper's modulus and the 2 mm biopsy punch;
+its Fig. S1 drawing dimensions are not in the text, so those sizes are assumptions,
+chosen after the Soft Robotics Toolkit PneuNet and the fPN-like body of FEM_NOTES.
+
+Frame (CONTRACTS.md §2): x along the length from the inlet/clamped end (x = 0), y across
+the width centred on 0, z = 0 at the bottom (paper) face, chambers toward +z. mm, MPa.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+KINDS = ("fpn", "spn")
+
+
+def _f(default, doc: str, source: str = "assumed"):
+    """A design field with its documentation and the source of its default."""
+    return field(default=default, metadata={"doc": doc, "source": source})
+
+
+SUPPLEMENT = "Mosadegh et al. 2014, Supporting Information"
+
+
+@dataclass(frozen=True)
+class Meta:
+    name: str = _f("fpn", "design name; names the output folder out/<name>/", "-")
+    kind: str = _f("fpn", "fpn: each chamber has its own walls; spn: chambers share walls", "-")
+    description: str = _f("", "one line shown by `pnmold templates`", "-")
+
+
+@dataclass(frozen=True)
+class Chambers:
+    count: int = _f(11, "number of chambers", "assumed (FEM_NOTES fPN-like body)")
+    length_mm: float = _f(6.0, "cavity length along x", "assumed (SRT PneuNet 8 mm chamber incl. 1 mm walls)")
+    width_mm: float = _f(16.0, "cavity width along y", "assumed (20 mm wide body, 2 mm side walls)")
+    height_mm: float = _f(10.5, "cavity height along z, from the bottom layer", SUPPLEMENT + ": chambers 10.5 mm")
+    inside_wall_mm: float = _f(1.0, "walls between chambers (normal to x)", SUPPLEMENT + ": 1 mm inside walls")
+    outer_wall_mm: float = _f(
+        2.0,
+        "side walls and roof of each chamber",
+        "assumed (thicker than inside walls so those expand)",
+    )
+    end_wall_mm: float = _f(
+        4.0,
+        "proximal end wall that holds the inlet bore",
+        "assumed (room for the 2 mm punch and tube)",
+    )
+    gap_mm: float = _f(
+        2.0,
+        "fPN gap between neighbouring chambers (the exterior mold's plates); ignored for spn",
+        "assumed (SRT PneuNet 2 mm spacing)",
+    )
+
+
+@dataclass(frozen=True)
+class Channel:
+    height_mm: float = _f(1.0, "connecting channel height", SUPPLEMENT + ": channel 1 mm high")
+    width_mm: float = _f(2.0, "connecting channel width", "assumed (SRT PneuNet 2 x 2 mm channel)")
+
+
+@dataclass(frozen=True)
+class TopLayer:
+    floor_mm: float = _f(
+        2.0,
+        "elastomer under the fPN gaps, around the channel",
+        "assumed (1 mm over the 1 mm channel)",
+    )
+
+
+@dataclass(frozen=True)
+class BottomLayer:
+    thickness_mm: float = _f(2.0, "strain-limiting layer thickness (paper included)", "assumed")
+
+
+@dataclass(frozen=True)
+class Paper:
+    thickness_mm: float = _f(
+        0.1,
+        "paper sheet thickness; it lies on the mold floor (z = 0)",
+        "assumed (80 g/m2 office paper)",
+    )
+    inset_mm: float = _f(2.0, "margin from the paper's edge to the layer's edge", "assumed")
+    modulus_mpa: float = _f(6500.0, "Young's modulus of the paper", SUPPLEMENT + ": E = 6.5 GPa")
+    poisson: float = _f(0.2, "Poisson's ratio of the paper", SUPPLEMENT + ": nu = 0.2")
+
+
+@dataclass(frozen=True)
+class Inlet:
+    diameter_mm: float = _f(
+        2.0,
+        "inlet bore, punched along +x at x = 0 into the channel",
+        SUPPLEMENT + ": 2 mm biopsy punch",
+    )
+    axis_offset_mm: float = _f(0.0, "height of the bore axis above the channel's centre line", "assumed")
+    tubing_id_mm: float = _f(0.79375, "tubing inner diameter", SUPPLEMENT + ': 1/32" ID')
+    tubing_od_mm: float = _f(
+        2.38125,
+        "tubing outer diameter (slightly larger than the bore seals it)",
+        SUPPLEMENT + ': 3/32" OD',
+    )
+
+
+@dataclass(frozen=True)
+class Mold:
+    wall_mm: float = _f(3.0, "mold wall and floor thickness", "assumed")
+    clearance_mm: float = _f(
+        0.3,
+        "gap where the interior mold's plate slides into the exterior mold",
+        "assumed (FDM slide fit)",
+    )
+    pour_allowance_mm: float = _f(3.0, "extra wall height above the pour level for overflow", "assumed")
+    plate_mm: float = _f(3.0, "thickness of the interior mold's base plate", "assumed")
+    ledge_mm: float = _f(3.0, "registration shoulder the interior plate seats against", "assumed")
+    seat_height_mm: float = _f(0.6, "height of the corner stops that locate the paper", "assumed (3 layers of 0.2 mm)")
+    seat_width_mm: float = _f(1.0, "width of the corner stops' arms", "assumed")
+    seat_arm_mm: float = _f(4.0, "length of the corner stops' arms along the paper edges", "assumed")
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str = _f("Elastosil M4601", "elastomer", SUPPLEMENT)
+    c10_mpa: float = _f(0.11, "Yeoh C10", SUPPLEMENT + ": C10 = 0.11 MPa")
+    c20_mpa: float = _f(0.02, "Yeoh C20", SUPPLEMENT + ": C20 = 0.02 MPa")
+    c30_mpa: float = _f(0.0, "Yeoh C30", SUPPLEMENT + ": C30 = 0")
+    density_g_per_ml: float = _f(
+        1.13,
+        "density of the cured elastomer",
+        "Wacker ELASTOSIL M 4601 A/B datasheet: 1.13 g/cm3",
+    )
+    mix_ratio_a_to_b: float = _f(9.0, "part A : part B by weight", "Wacker ELASTOSIL M 4601 A/B datasheet: 9:1")
+
+
+@dataclass(frozen=True)
+class Casting:
+    min_elastomer_wall_mm: float = _f(
+        0.8,
+        "thinnest elastomer wall that casts reliably",
+        "assumed (the supplement casts 1 mm walls)",
+    )
+    waste_margin: float = _f(0.15, "extra elastomer mixed beyond the cast volume (cups, overflow)", "assumed")
+
+
+@dataclass(frozen=True)
+class Printer:
+    name: str = _f("Stratasys Dimension", "printer", SUPPLEMENT + ": Dimension 3D printer, ABS")
+    build_x_mm: float = _f(203.0, "build volume x", "Stratasys Dimension spec: 203 x 203 x 305 mm")
+    build_y_mm: float = _f(203.0, "build volume y", "Stratasys Dimension spec: 203 x 203 x 305 mm")
+    build_z_mm: float = _f(305.0, "build volume z", "Stratasys Dimension spec: 203 x 203 x 305 mm")
+    nozzle_mm: float = _f(0.4, "nozzle (extrusion width)", "assumed")
+    min_wall_lines: int = _f(2, "fewest extrusion lines across a printed wall", "assumed")
+
+
+SECTIONS = {
+    "design": Meta, "chambers": Chambers, "channel": Channel, "top_layer": TopLayer,
+    "bottom_layer": BottomLayer, "paper": Paper, "inlet": Inlet, "mold": Mold,
+    "material": Material, "casting": Casting, "printer": Printer,
+}
+
+
+@dataclass(frozen=True)
+class Design:
+    """A whole design. Derived sizes are properties so they cannot go stale."""
+
+    design: Meta = field(default_factory=Meta)
+    chambers: Chambers = field(default_factory=Chambers)
+    channel: Channel = field(default_factory=Channel)
+    top_layer: TopLayer = field(default_factory=TopLayer)
+    bottom_layer: BottomLayer = field(default_factory=BottomLayer)
+    paper: Paper = field(default_factory=Paper)
+    inlet: Inlet = field(default_factory=Inlet)
+    mold: Mold = field(default_factory=Mold)
+    material: Material = field(default_factory=Material)
+    casting: Casting = field(default_factory=Casting)
+    printer: Printer = field(default_factory=Printer)
+
+    # -- identity -----------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.design.name
+
+    @property
+    def kind(self) -> str:
+        return self.design.kind
+
+    def replace(self, section: str, **changes) -> Design:
+        """A new design with fields of one section changed (no mutation)."""
+        return dataclasses.replace(self, **{section: dataclasses.replace(getattr(self, section), **changes)})
+
+    # -- x layout -------------------------------------------------------------------
+    @property
+    def gap_mm(self) -> float:
+        """Gap between neighbouring chambers: the plates of the exterior mold (0 for spn)."""
+        return self.chambers.gap_mm if self.kind == "fpn" else 0.0
+
+    @property
+    def pitch_mm(self) -> float:
+        c = self.chambers
+        if self.kind == "fpn":
+            return c.length_mm + 2 * c.inside_wall_mm + self.gap_mm
+        return c.length_mm + c.inside_wall_mm
+
+    def cavity_x_mm(self, i: int) -> tuple[float, float]:
+        """x-extent of chamber ``i``'s cavity (0 = proximal)."""
+        x0 = self.chambers.end_wall_mm + i * self.pitch_mm
+        return x0, x0 + self.chambers.length_mm
+
+    def gap_x_mm(self, i: int) -> tuple[float, float]:
+        """x-extent of the fPN gap between chamber ``i`` and ``i + 1``."""
+        x0 = self.cavity_x_mm(i)[1] + self.chambers.inside_wall_mm
+        return x0, x0 + self.gap_mm
+
+    @property
+    def length_mm(self) -> float:
+        """Overall length L of the actuator (x)."""
+        return self.cavity_x_mm(self.chambers.count - 1)[1] + self.chambers.inside_wall_mm
+
+    @property
+    def width_mm(self) -> float:
+        """Overall width W of the actuator (y)."""
+        return self.chambers.width_mm + 2 * self.chambers.outer_wall_mm
+
+    # -- z layout -------------------------------------------------------------------
+    @property
+    def top_z0_mm(self) -> float:
+        """Bottom face of the top layer = top face of the bottom layer."""
+        return self.bottom_layer.thickness_mm
+
+    @property
+    def top_height_mm(self) -> float:
+        """Height of the top layer: cavity height plus roof."""
+        return self.chambers.height_mm + self.chambers.outer_wall_mm
+
+    @property
+    def height_mm(self) -> float:
+        """Overall height of the actuator (z)."""
+        return self.top_z0_mm + self.top_height_mm
+
+    # -- channel and inlet ------------------------------------------------------------
+    @property
+    def channel_x_mm(self) -> tuple[float, float]:
+        """The channel starts halfway into the end wall and ends in the last cavity."""
+        return self.chambers.end_wall_mm / 2, self.cavity_x_mm(self.chambers.count - 1)[1]
+
+    @property
+    def inlet_axis_z_mm(self) -> float:
+        return self.top_z0_mm + self.channel.height_mm / 2 + self.inlet.axis_offset_mm
+
+    @property
+    def inlet_depth_mm(self) -> float:
+        """The punch goes in from x = 0 until its full bore has entered the channel."""
+        return self.channel_x_mm[0] + self.inlet.diameter_mm / 2
+
+    # -- paper and molds --------------------------------------------------------------
+    @property
+    def paper_size_mm(self) -> tuple[float, float]:
+        """Paper cut size (x, y)."""
+        return (self.length_mm - 2 * self.paper.inset_mm, self.width_mm - 2 * self.paper.inset_mm)
+
+    @property
+    def printable_wall_mm(self) -> float:
+        """Thinnest wall the printer makes: nozzle width times the fewest lines."""
+        return self.printer.nozzle_mm * self.printer.min_wall_lines
+
+    @property
+    def exterior_mold_size_mm(self) -> tuple[float, float, float]:
+        m = self.mold
+        rim = m.ledge_mm + m.clearance_mm + m.wall_mm
+        z = m.pour_allowance_mm + m.plate_mm + self.top_height_mm + m.wall_mm
+        return self.length_mm + 2 * rim, self.width_mm + 2 * rim, z
+
+    @property
+    def interior_mold_size_mm(self) -> tuple[float, float, float]:
+        m = self.mold
+        return (self.length_mm + 2 * m.ledge_mm, self.width_mm + 2 * m.ledge_mm,
+                m.plate_mm + self.chambers.height_mm)
+
+    @property
+    def bottom_mold_size_mm(self) -> tuple[float, float, float]:
+        m = self.mold
+        return (self.length_mm + 2 * m.wall_mm, self.width_mm + 2 * m.wall_mm,
+                m.wall_mm + self.bottom_layer.thickness_mm + m.pour_allowance_mm)

@@ -1,0 +1,84 @@
+"""``build``: design -> CAD -> STEP/STL -> checks -> quick FE -> report, in one folder.
+
+The build is staged in a temporary folder that replaces ``out/<name>/`` only when every
+stage has finished, so a failed run never leaves partial files or harms an earlier build.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pnmold
+from pnmold import report as rep
+from pnmold.design import Design, to_toml
+from pnmold.fsutil import staged_dir, write_json, write_text
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    """What a build wrote and found; ``exit_code`` is 1 when a design-rule check failed."""
+
+    design: Design
+    out_dir: Path
+    report: dict[str, Any]
+
+    @property
+    def failed_checks(self) -> list[dict[str, Any]]:
+        return [c for c in self.report["checks"] if c["passed"] is False]
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if self.failed_checks else 0
+
+
+def default_out_dir(design: Design) -> Path:
+    return Path("out") / design.name
+
+
+def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True,
+          progress: Progress | None = None) -> BuildResult:
+    """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``)."""
+    from pnmold.cad import PART_NAMES, export_parts, make_parts
+
+    say = progress or (lambda stage: None)
+    final = Path(out_dir) if out_dir is not None else default_out_dir(design)
+    timings: dict[str, float] = {}
+
+    def timed(stage: str, fn, *args, **kwargs):
+        say(stage)
+        t0 = time.perf_counter()
+        value = fn(*args, **kwargs)
+        timings[stage] = round(time.perf_counter() - t0, 3)
+        return value
+
+    with staged_dir(final) as tmp:
+        shapes = timed("cad", make_parts, design)
+        timed("export", export_parts, shapes, tmp)
+        del shapes
+        write_text(tmp / "design.toml", to_toml(design))
+        parts = timed("measure", rep.measure_parts, tmp, PART_NAMES)
+        report: dict[str, Any] = {
+            "schema": rep.SCHEMA,
+            "pnmold_version": pnmold.__version__,
+            "design": rep.design_entry(design),
+            "versions": rep.versions(),
+            "parts": parts,
+            "checks": [],
+            "fem": {"full_bend_pressure_kpa": None, "reason": "quick FE not run",
+                    "max_pressure_kpa": None, "steps": []},
+            "pours": rep.pours(design, parts),
+            "timings_s": timings,
+        }
+        if not fem:
+            report["fem"]["reason"] = "skipped (--no-fem)"
+        write_json(tmp / "report.json", report)
+    return BuildResult(design, final, report)

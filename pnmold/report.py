@@ -1,0 +1,68 @@
+"""The build report (schema ``pnmold.build/1``, CONTRACTS.md §3) and its parts."""
+
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+from typing import Any
+
+from pnmold.design import Design, digest
+from pnmold.stlio import load_stl
+
+SCHEMA = "pnmold.build/1"
+_VERSIONED = ("cadquery", "trimesh", "manifold3d", "gmsh", "scikit-fem", "numpy", "scipy")
+
+
+def versions() -> dict[str, str]:
+    out = {}
+    for name in _VERSIONED:
+        try:
+            out[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def measure_parts(out_dir: Path, names: tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """Volume, bounding box and watertightness of each exported STL, read back from disk."""
+    parts = {}
+    for name in names:
+        mesh = load_stl(Path(out_dir) / f"{name}.stl")
+        parts[name] = {
+            "files": [f"{name}.step", f"{name}.stl"],
+            "volume_mm3": round(float(mesh.volume), 4),
+            "bbox_mm": [[round(float(v), 4) for v in row] for row in mesh.bounds],
+            "watertight": bool(mesh.is_watertight),
+            "faces": int(len(mesh.faces)),
+        }
+    return parts
+
+
+def pours(design: Design, parts: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Elastomer per pour: the cast volume and mass, and part A / part B to mix.
+
+    ``volume_ml`` and ``mass_g`` are the cast elastomer (the paper's volume excluded);
+    ``part_a_g`` and ``part_b_g`` split ``mix_g`` = mass x (1 + casting.waste_margin) by the
+    material's A:B mix ratio by weight.
+    """
+    m, margin = design.material, design.casting.waste_margin
+    cast = {
+        "mold_exterior+mold_interior": parts["top_layer"]["volume_mm3"],
+        "mold_bottom": parts["bottom_layer"]["volume_mm3"] - parts["paper"]["volume_mm3"],
+    }
+    out = []
+    for mold, volume_mm3 in cast.items():
+        volume_ml = volume_mm3 / 1000.0
+        mass_g = volume_ml * m.density_g_per_ml
+        mix_g = mass_g * (1.0 + margin)
+        a = mix_g * m.mix_ratio_a_to_b / (m.mix_ratio_a_to_b + 1.0)
+        out.append({"mold": mold, "part": "top_layer" if "interior" in mold else "bottom_layer",
+                    "volume_ml": round(volume_ml, 4), "mass_g": round(mass_g, 4),
+                    "waste_margin": margin, "mix_g": round(mix_g, 4),
+                    "part_a_g": round(a, 4), "part_b_g": round(mix_g - a, 4)})
+    return out
+
+
+def design_entry(design: Design) -> dict[str, str]:
+    return {"name": design.name, "kind": design.kind, "digest": digest(design),
+            "material": design.material.name}

@@ -1,0 +1,110 @@
+"""The exported parts: golden volumes, closed meshes, STEP = STL, casting consistency."""
+
+from __future__ import annotations
+
+import gmsh
+import pytest
+
+from pnmold.cad import PART_NAMES
+from pnmold.checks import solids as S
+from pnmold.design import load_design
+from pnmold.stlio import load_stl
+from tests.closed_form import cavity_mm3, part_volumes_mm3
+from tests.conftest import TEMPLATES
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_part_volumes_match_closed_form(built, template):
+    result = built(template)
+    expected = part_volumes_mm3(result.design)
+    for name in PART_NAMES:
+        got = result.report["parts"][name]["volume_mm3"]
+        # boxes are exact; the tessellated inlet bore is the only curved face
+        assert got == pytest.approx(expected[name], rel=2e-4), name
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_every_stl_is_a_closed_consistently_wound_solid(built, template):
+    out = built(template).out_dir
+    for name in PART_NAMES:
+        mesh = load_stl(out / f"{name}.stl")
+        assert mesh.is_watertight, name
+        assert mesh.is_winding_consistent, name
+        assert mesh.volume > 0, name
+        assert len(mesh.split(only_watertight=False)) == 1, name
+
+
+@pytest.mark.parametrize("template", ["fpn", "spn"])
+def test_step_reimports_in_gmsh_with_the_stl_volume(built, template):
+    out = built(template).out_dir
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        for name in PART_NAMES:
+            gmsh.clear()
+            entities = gmsh.model.occ.importShapes(str(out / f"{name}.step"))
+            gmsh.model.occ.synchronize()
+            step_volume = sum(gmsh.model.occ.getMass(d, t) for d, t in entities if d == 3)
+            stl_volume = load_stl(out / f"{name}.stl").volume
+            assert stl_volume == pytest.approx(step_volume, rel=5e-3), name
+    finally:
+        gmsh.finalize()
+
+
+def _solids(out, names):
+    return {n: S.to_manifold(load_stl(out / f"{n}.stl"), n) for n in names}
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_top_layer_molds_partition_the_casting_region(built, template):
+    result = built(template)
+    d, out = result.design, result.out_dir
+    m = _solids(out, ["top_layer", "mold_interior", "mold_exterior"])
+    top_volume = S.volume(m["top_layer"])
+    tol = 1e-4 * top_volume  # 0.01 % of the top layer
+    assert S.overlap(m["top_layer"], m["mold_interior"]) <= tol
+    assert S.overlap(m["top_layer"], m["mold_exterior"]) <= tol
+    assert S.overlap(m["mold_interior"], m["mold_exterior"]) <= tol
+    z0 = d.top_z0_mm
+    region = S.box((0, -d.width_mm / 2, z0), (d.length_mm, d.width_mm / 2, z0 + d.top_height_mm))
+    assert S.void(region, list(m.values())) <= tol
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_bottom_layer_and_its_mold_partition_the_casting_region(built, template):
+    result = built(template)
+    d, out = result.design, result.out_dir
+    m = _solids(out, ["bottom_layer", "mold_bottom", "paper"])
+    tol = 1e-4 * S.volume(m["bottom_layer"])
+    assert S.overlap(m["bottom_layer"], m["mold_bottom"]) <= tol
+    region = S.box((0, -d.width_mm / 2, 0), (d.length_mm, d.width_mm / 2, d.bottom_layer.thickness_mm))
+    assert S.void(region, [m["bottom_layer"], m["mold_bottom"]]) <= tol
+    # the paper lies inside the bottom layer, clear of the mold's stops
+    assert S.overlap(m["paper"], m["bottom_layer"]) == pytest.approx(S.volume(m["paper"]), rel=1e-6)
+    assert S.overlap(m["paper"], m["mold_bottom"]) <= tol
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_cavity_has_its_closed_form_volume_and_opens_only_through_the_inlet(built, template):
+    result = built(template)
+    d = result.design
+    actuator = S.to_manifold(load_stl(result.out_dir / "actuator.stl"))
+    # as built, the cavity's surface joins the outer surface: it is open (through the bore)
+    assert len(S.components(actuator)) == 1
+    # plug the bore up to the channel's start: the cavity becomes one sealed void
+    plug = S.cylinder_x(1.05 * d.inlet.diameter_mm / 2, -1.0, d.channel_x_mm[0], 0.0,
+                        d.inlet_axis_z_mm)
+    pieces = sorted(S.volume(c) for c in S.components(actuator + plug))
+    assert len(pieces) == 2, "plugging the inlet must seal the cavity; something else is open"
+    assert -pieces[0] == pytest.approx(cavity_mm3(d), rel=0.01)
+
+
+def test_fpn_chambers_share_no_wall_and_spn_chambers_do(built):
+    """fPN: the exterior mold's plates separate every pair of chambers above the floor."""
+    for template, expect_plates in (("fpn", True), ("spn", False)):
+        d = load_design(template)
+        ext = S.to_manifold(load_stl(built(template).out_dir / "mold_exterior.stl"))
+        z0 = d.top_z0_mm + d.top_layer.floor_mm
+        between = S.box((d.cavity_x_mm(0)[1], -d.width_mm / 2, z0),
+                        (d.cavity_x_mm(1)[0], d.width_mm / 2, d.height_mm))
+        assert (S.overlap(ext, between) > 0) == expect_plates

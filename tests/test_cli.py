@@ -1,0 +1,86 @@
+"""The command line, called in-process: exit codes and the files it writes."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pnmold.cad import PART_NAMES
+from pnmold.cli import main
+from pnmold.errors import GeometryError
+from tests.test_design import INVALID
+
+BUILD_FILES = {f"{n}.{ext}" for n in PART_NAMES for ext in ("step", "stl")} | {
+    "design.toml", "report.json"}
+
+
+def test_build_writes_every_contract_file(tmp_path):
+    out = tmp_path / "fpn"
+    assert main(["build", "--out", str(out), "--no-fem", "--quiet"]) == 0
+    assert BUILD_FILES <= {p.name for p in out.iterdir()}
+    assert len([n for n in BUILD_FILES if n.endswith((".step", ".stl"))]) == 14
+    report = json.loads((out / "report.json").read_text())
+    assert report["schema"] == "pnmold.build/1"
+    assert report["design"]["name"] == "fpn" and len(report["design"]["digest"]) == 16
+    for name in PART_NAMES:
+        assert report["parts"][name]["watertight"] is True
+        assert report["parts"][name]["volume_mm3"] > 0
+    pours = {p["mold"]: p for p in report["pours"]}
+    top = pours["mold_exterior+mold_interior"]
+    assert top["volume_ml"] == pytest.approx(report["parts"]["top_layer"]["volume_mm3"] / 1000, rel=1e-4)
+    assert top["mass_g"] == pytest.approx(top["volume_ml"] * 1.13, rel=1e-4)
+    assert top["part_a_g"] == pytest.approx(9 * top["part_b_g"], rel=1e-4)
+    assert top["part_a_g"] + top["part_b_g"] == pytest.approx(top["mass_g"] * 1.15, rel=1e-4)
+    assert {"cad", "export", "measure"} <= set(report["timings_s"])
+    assert report["fem"]["full_bend_pressure_kpa"] is None and report["fem"]["reason"]
+
+
+def test_set_overrides_reach_the_resolved_design(tmp_path):
+    out = tmp_path / "x"
+    assert main(["build", "spn", "--out", str(out), "--set", "chambers.count=6", "--no-fem",
+                 "--quiet"]) == 0
+    text = (out / "design.toml").read_text()
+    assert "count = 6" in text and 'kind = "spn"' in text
+
+
+@pytest.mark.parametrize(("override", "field"), INVALID, ids=[f for _, f in INVALID])
+def test_invalid_design_exits_2_naming_the_field(override, field, tmp_path, capsys):
+    out = tmp_path / "never"
+    assert main(["build", "--out", str(out), "--set", override, "--no-fem", "--quiet"]) == 2
+    assert field in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_failed_build_leaves_the_earlier_build_untouched(tmp_path, monkeypatch):
+    out = tmp_path / "fpn"
+    assert main(["build", "--out", str(out), "--no-fem", "--quiet"]) == 0
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+
+    from pnmold import report
+
+    def broken(*args, **kwargs):
+        raise GeometryError("measure", "simulated failure after export")
+
+    monkeypatch.setattr(report, "measure_parts", broken)
+    assert main(["build", "--out", str(out), "--no-fem", "--quiet"]) == 3
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir()] == ["fpn"]  # no temporary folder left
+
+
+def test_templates_lists_each_template(capsys):
+    assert main(["templates"]) == 0
+    out = capsys.readouterr().out
+    for name in ("fpn", "spn", "fig-s2a-h5", "fig-s2b-n7", "fig-s2c-w2"):
+        assert name in out
+
+
+@pytest.mark.parametrize("verb", ["build", "templates"])
+def test_help_on_every_verb(verb, capsys):
+    assert main([verb, "--help"]) == 0
+    assert "usage" in capsys.readouterr().out
+
+
+def test_bad_usage_exits_2():
+    assert main(["build", "--no-such-option"]) == 2
+    assert main([]) == 2

@@ -1,0 +1,117 @@
+"""Designs: templates load, overrides apply, bad values are refused naming the field."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from pnmold.design import SECTIONS, digest, load_design, to_toml, validate
+from pnmold.errors import DesignError
+from tests.conftest import TEMPLATES
+
+
+@pytest.mark.parametrize("template", TEMPLATES)
+def test_every_template_loads_valid_and_round_trips(template, tmp_path):
+    design = load_design(template)
+    assert validate(design) is design
+    resolved = tmp_path / "design.toml"
+    resolved.write_text(to_toml(design))
+    again = load_design(resolved)
+    assert again == design
+    assert digest(again) == digest(design)
+
+
+def test_fpn_is_the_supplements_numbers():
+    d = load_design("fpn")
+    assert d.kind == "fpn"
+    assert d.chambers.height_mm == 10.5 and d.channel.height_mm == 1.0
+    assert d.chambers.inside_wall_mm == 1.0 and d.inlet.diameter_mm == 2.0
+    assert (d.material.c10_mpa, d.material.c20_mpa, d.material.c30_mpa) == (0.11, 0.02, 0.0)
+    assert d.paper.modulus_mpa == 6500.0 and d.paper.poisson == 0.2
+    assert (d.printer.build_x_mm, d.printer.build_y_mm, d.printer.build_z_mm) == (203, 203, 305)
+
+
+def test_fig_s2_family_members_keep_their_constants():
+    assert load_design("fig-s2a-h5").chambers.count == 15
+    b = load_design("fig-s2b-n7")
+    assert b.chambers.height_mm == 7.0 and b.chambers.inside_wall_mm == 1.0
+    c = load_design("fig-s2c-w2")
+    assert c.chambers.height_mm == 10.5 and c.chambers.count == 5
+
+
+def test_overrides_make_new_values_and_derived_sizes_follow():
+    base = load_design("fpn")
+    more = load_design("fpn", ["chambers.count=12", "material.name=Ecoflex 00-30"])
+    assert more.chambers.count == 12 and more.material.name == "Ecoflex 00-30"
+    assert more.length_mm == pytest.approx(base.length_mm + base.pitch_mm)
+    taller = base.replace("chambers", height_mm=12.0)
+    assert taller.height_mm == pytest.approx(base.height_mm + 1.5)
+    assert base.chambers.height_mm == 10.5  # unchanged: frozen values
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        base.chambers.height_mm = 3.0  # type: ignore[misc]
+
+
+def test_spn_shares_walls_and_fpn_has_gaps():
+    f, s = load_design("fpn"), load_design("spn")
+    assert f.pitch_mm == f.chambers.length_mm + 2 * f.chambers.inside_wall_mm + f.chambers.gap_mm
+    assert s.pitch_mm == s.chambers.length_mm + s.chambers.inside_wall_mm
+    assert s.gap_mm == 0.0
+
+
+def test_unknown_key_lists_the_valid_ones(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text("[chambers]\ncolour = 3\n")
+    with pytest.raises(DesignError) as info:
+        load_design(path)
+    assert info.value.field == "chambers.colour"
+    for f in dataclasses.fields(SECTIONS["chambers"]):
+        assert f.name in str(info.value)
+
+
+def test_unknown_section_is_refused(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text("[wings]\nspan_mm = 3\n")
+    with pytest.raises(DesignError, match="valid sections"):
+        load_design(path)
+
+
+def test_bad_toml_names_the_file(tmp_path):
+    path = tmp_path / "broken.toml"
+    path.write_text("[chambers\ncount = 3\n")
+    with pytest.raises(DesignError, match="broken.toml"):
+        load_design(path)
+
+
+def test_unknown_template_lists_the_templates():
+    with pytest.raises(DesignError, match="fpn"):
+        load_design("no-such-template")
+
+
+# (override, field named in the error): at least ten distinct ways to be wrong
+INVALID = [
+    ("chambers.count=2.5", "chambers.count"),                  # integer count
+    ("chambers.count=1", "chambers.count"),                    # one chamber has nothing to join
+    ("chambers.height_mm=-3", "chambers.height_mm"),           # positive size
+    ("chambers.length_mm=0", "chambers.length_mm"),            # positive size
+    ("channel.height_mm=12", "channel.height_mm"),             # channel lower than chambers
+    ("chambers.gap_mm=0.5", "chambers.gap_mm"),                # exterior plates printable
+    ("mold.wall_mm=0.4", "mold.wall_mm"),                      # mold walls printable
+    ("chambers.inside_wall_mm=0.5", "chambers.inside_wall_mm"),  # castable elastomer wall
+    ("top_layer.floor_mm=1.2", "top_layer.floor_mm"),          # elastomer over the channel
+    ("chambers.count=40", "printer.build_x_mm"),               # build volume
+    ("design.kind=xpn", "design.kind"),                        # kinds
+    ("material.c10_mpa=0", "material.c10_mpa"),                # material positive
+    ("paper.inset_mm=0.5", "paper.inset_mm"),                  # room for the paper stops
+    ("inlet.axis_offset_mm=3", "inlet.axis_offset_mm"),        # bore must reach the channel
+    ("chambers.height_mm=abc", "chambers.height_mm"),          # a number
+    ("paper.poisson=0.6", "paper.poisson"),                    # physical range
+]
+
+
+@pytest.mark.parametrize(("override", "field"), INVALID, ids=[f for _, f in INVALID])
+def test_invalid_designs_are_refused_naming_the_field(override, field):
+    with pytest.raises(DesignError) as info:
+        load_design("fpn", [override])
+    assert info.value.field == field
+    assert field in str(info.value)
