@@ -29,13 +29,41 @@ def cmd_build(args) -> int:
     from pnmold.pipeline import build
 
     design = load_design(args.design, args.set)
-    result = build(design, args.out, fem=not args.no_fem, progress=_progress(args))
+    result = build(design, args.out, fem=not args.no_fem, use_slicer=not args.no_slicer,
+                   progress=_progress(args))
     if not args.quiet:
         out_console.print(f"wrote {result.out_dir}/ ({len(result.report['parts'])} parts as "
                           f"STEP and STL, design.toml, report.json)")
-    for check in result.failed_checks:
+    return _verdict(result.report["checks"], args.quiet)
+
+
+def _verdict(checks: list[dict], quiet: bool) -> int:
+    """Print the failed checks in plain words; 1 when any failed."""
+    failed = [c for c in checks if c["passed"] is False]
+    skipped = [c for c in checks if c["passed"] is None]
+    for check in failed:
         err_console.print(f"[red]FAILED[/red] {check['id']}: {escape(check['message'])}")
-    return result.exit_code
+    if not quiet:
+        for check in skipped:
+            err_console.print(f"[yellow]skipped[/yellow] {check['id']}: {escape(check['message'])}")
+        passed = len(checks) - len(failed) - len(skipped)
+        out_console.print(f"checks: {passed} passed, {len(failed)} failed, {len(skipped)} skipped")
+    return 1 if failed else 0
+
+
+def cmd_check(args) -> int:
+    import json
+    from pathlib import Path
+
+    from pnmold.checks import check_parts
+    from pnmold.fsutil import write_json
+    from pnmold.pipeline import record_checks
+
+    checks = check_parts(args.dir, use_slicer=not args.no_slicer)
+    path = Path(args.dir) / "report.json"
+    report = json.loads(path.read_text()) if path.is_file() else {}
+    write_json(path, record_checks(report, checks))
+    return _verdict(record_checks({}, checks)["checks"], args.quiet)
 
 
 def cmd_templates(args) -> int:
@@ -67,8 +95,17 @@ def make_parser() -> argparse.ArgumentParser:
     _add_design(p, default="fpn")
     p.add_argument("--out", metavar="DIR", help="output folder (default out/<design-name>/)")
     p.add_argument("--no-fem", action="store_true", help="skip the quick FE solve")
+    p.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(handler=cmd_build)
+
+    p = sub.add_parser("check", help="re-run every design-rule check on a build folder",
+                       description="Re-run the design-rule gate on the files of a build folder; "
+                       "updates its report.json; exit 1 when a check fails.")
+    p.add_argument("dir", help="a build folder (out/<design-name>/)")
+    p.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
+    p.add_argument("--quiet", action="store_true", help="print only failures")
+    p.set_defaults(handler=cmd_check)
 
     p = sub.add_parser("templates", help="list the design templates",
                        description="List the design templates with one line each.")

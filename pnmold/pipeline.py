@@ -15,6 +15,7 @@ from typing import Any
 
 import pnmold
 from pnmold import report as rep
+from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
 from pnmold.fsutil import staged_dir, write_json, write_text
 
@@ -44,8 +45,20 @@ def default_out_dir(design: Design) -> Path:
     return Path("out") / design.name
 
 
+def slicer_summary(checks: list[dict[str, Any]]) -> dict[str, Any]:
+    """PrusaSlicer's estimates per mold, from the slicer findings."""
+    return {c["id"].removeprefix("print.slicer."): (c["value"] if c["passed"] else {"status": c["status"],
+            "message": c["message"]}) for c in checks if c["id"].startswith("print.slicer.")}
+
+
+def record_checks(report: dict[str, Any], checks: CheckReport) -> dict[str, Any]:
+    """``report`` with the gate's findings and the slicer's estimates (a new dict)."""
+    found = checks.as_list()
+    return {**report, "checks": found, "slicer": slicer_summary(found)}
+
+
 def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True,
-          progress: Progress | None = None) -> BuildResult:
+          use_slicer: bool = True, progress: Progress | None = None) -> BuildResult:
     """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``)."""
     from pnmold.cad import PART_NAMES, export_parts, make_parts
 
@@ -78,6 +91,8 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
             "pours": rep.pours(design, parts),
             "timings_s": timings,
         }
+        checks = timed("checks", check_parts, tmp, use_slicer=use_slicer)
+        report = record_checks(report, checks)
         if not fem:
             report["fem"]["reason"] = "skipped (--no-fem)"
         write_json(tmp / "report.json", report)

@@ -12,6 +12,7 @@ import cadquery as cq
 from pnmold.cad import molds, parts
 from pnmold.design import Design
 from pnmold.errors import ExportError
+from pnmold.layout import USES
 
 log = logging.getLogger(__name__)
 
@@ -56,17 +57,33 @@ def _atomic(path: Path, write) -> None:
         raise ExportError(str(path), f"export failed: {err}") from err
 
 
+def _write_stl(shape: cq.Shape, path: Path) -> None:
+    _atomic(path, lambda tmp: shape.exportStl(
+        tmp, tolerance=STL_TOLERANCE_MM, angularTolerance=STL_ANGULAR_RAD, ascii=False,
+        relative=False))
+
+
+def print_oriented(shape: cq.Shape, name: str) -> cq.Shape:
+    """A mold turned so that its bed face is down and resting on z = 0."""
+    if USES[name].print_up[2] < 0:
+        shape = shape.rotate(cq.Vector(0, 0, 0), cq.Vector(1, 0, 0), 180)
+    return shape.translate(cq.Vector(0, 0, -shape.BoundingBox().zmin))
+
+
 def export_parts(shapes: dict[str, cq.Shape], out_dir: Path) -> dict[str, Path]:
-    """Write ``<name>.step`` and ``<name>.stl`` for every shape; return name.ext -> path."""
+    """Write ``<name>.step`` and ``<name>.stl`` for every shape, and a print-oriented STL
+    of every mold in ``print/``; return relative file name -> path."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "print").mkdir(parents=True, exist_ok=True)
     written = {}
     for name, shape in shapes.items():
         step, stl = out_dir / f"{name}.step", out_dir / f"{name}.stl"
         _atomic(step, lambda tmp, s=shape: cq.exporters.export(s, tmp, exportType="STEP"))
-        _atomic(stl, lambda tmp, s=shape: s.exportStl(
-            tmp, tolerance=STL_TOLERANCE_MM, angularTolerance=STL_ANGULAR_RAD,
-            ascii=False, relative=False))
+        _write_stl(shape, stl)
         written[f"{name}.step"], written[f"{name}.stl"] = step, stl
+        if name in USES:
+            path = out_dir / "print" / f"{name}.stl"
+            _write_stl(print_oriented(shape, name), path)
+            written[f"print/{name}.stl"] = path
         log.debug("exported %s", name)
     return written

@@ -14,6 +14,10 @@ import re
 from pnmold.design.model import KINDS, SECTIONS, Design
 from pnmold.errors import DesignError
 
+#: assumed: a tube up to 30 % wider than the bore still goes in (the supplement's 3/32" tube
+#: in a 2 mm punched hole is 19 % wider)
+TUBE_INTERFERENCE_MAX = 0.3
+
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
 _NON_NEGATIVE = {"material.c20_mpa", "material.c30_mpa", "casting.waste_margin", "chambers.gap_mm"}
@@ -85,6 +89,10 @@ def _check_printable(design: Design) -> None:
     for field, value in (("mold.wall_mm", m.wall_mm), ("mold.plate_mm", m.plate_mm),
                          ("mold.ledge_mm", m.ledge_mm), ("mold.seat_width_mm", m.seat_width_mm)):
         _need(value >= lim, field, f"{value} mm is thinner than {why}")
+    _need(m.clearance_mm <= design.casting.min_elastomer_wall_mm, "mold.clearance_mm",
+          f"{m.clearance_mm} mm is wider than the thinnest elastomer wall "
+          f"(casting.min_elastomer_wall_mm = {design.casting.min_elastomer_wall_mm} mm), which is "
+          "all that keeps the interior and exterior molds apart")
     _need(m.clearance_mm < m.ledge_mm, "mold.clearance_mm",
           f"{m.clearance_mm} mm must be smaller than the registration ledge ({m.ledge_mm} mm)")
 
@@ -109,6 +117,10 @@ def _check_channel_and_inlet(design: Design) -> None:
           f"the bore's top at z = {design.inlet_axis_z_mm + r:.3g} mm breaks through the roof")
     _need(r + design.casting.min_elastomer_wall_mm <= design.width_mm / 2, "inlet.diameter_mm",
           "the bore is wider than the actuator")
+    fit = (inlet.tubing_od_mm - inlet.diameter_mm) / inlet.diameter_mm
+    _need(0 < fit <= TUBE_INTERFERENCE_MAX, "inlet.diameter_mm",
+          f"the tubing (OD {inlet.tubing_od_mm:.3g} mm) must be slightly larger than the bore to seal "
+          f"(0 to {100 * TUBE_INTERFERENCE_MAX:.0f}% larger), it is {100 * fit:.0f}% larger")
     _need(inlet.tubing_id_mm < inlet.tubing_od_mm, "inlet.tubing_id_mm",
           f"{inlet.tubing_id_mm} mm must be smaller than the outer diameter {inlet.tubing_od_mm} mm")
 
@@ -118,10 +130,13 @@ def _check_paper(design: Design) -> None:
     _need(p.thickness_mm <= m.seat_height_mm, "paper.thickness_mm",
           f"{p.thickness_mm} mm is thicker than the corner stops that hold it "
           f"(mold.seat_height_mm = {m.seat_height_mm} mm)")
-    _need(p.inset_mm >= m.seat_width_mm, "paper.inset_mm",
-          f"{p.inset_mm} mm leaves no room for the corner stops (mold.seat_width_mm = {m.seat_width_mm} mm)")
+    lim = design.casting.min_elastomer_wall_mm
+    _need(p.inset_mm >= m.seat_width_mm + lim, "paper.inset_mm",
+          f"{p.inset_mm} mm leaves no room for the corner stops (mold.seat_width_mm = {m.seat_width_mm} mm) "
+          f"and {lim} mm of elastomer outside them")
     px, py = design.paper_size_mm
-    _need(px > 2 * m.seat_arm_mm and py > 2 * m.seat_arm_mm, "paper.inset_mm",
+    room = 2 * m.seat_arm_mm + lim
+    _need(px >= room and py >= room, "paper.inset_mm",
           f"leaves a {px:.3g} x {py:.3g} mm sheet, too small for the corner stops "
           f"(mold.seat_arm_mm = {m.seat_arm_mm} mm)")
     _need(p.poisson < 0.5, "paper.poisson", f"must be below 0.5, got {p.poisson}")
