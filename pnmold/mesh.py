@@ -1,0 +1,231 @@
+"""gmsh meshes the exported ``actuator.step`` into a :class:`~pnmold.tetmesh.TetMesh`.
+
+The very file the printer's molds were checked against is read back; the tube seated in
+the inlet bore is modelled by filling the bore up to the channel's start, so the cavity
+(chambers, channel and the bore's tail) is closed and the pressure load conservative.
+By default only the half y >= 0 is meshed (the ``symmetry`` plane carries u_y = 0).
+
+Boundary facets are found from the tetrahedra (each facet oriented outward) and named by
+where they lie, using the design's layout: ``cavity`` inside the cores' closure,
+``clamp`` on the top and bottom faces of the proximal chamber (supplement: "zero
+displacements at the top and bottom face of the proximal pneu-net chamber"),
+``strain_limiting_layer`` on the bottom face under the paper sheet, ``free_end`` at
+x = L, ``symmetry`` on y = 0. No gmsh state leaves this module.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import gmsh
+import numpy as np
+
+from pnmold.design import Design
+from pnmold.errors import MeshingError
+from pnmold.tetmesh import (
+    CAVITY,
+    CLAMP,
+    ELASTOMER,
+    FREE_END,
+    STRAIN_LIMITING_LAYER,
+    SYMMETRY,
+    TetMesh,
+)
+
+log = logging.getLogger(__name__)
+_TOL = 1e-3
+
+
+@dataclass(frozen=True)
+class MeshSize:
+    """Element sizes (mm) of the linear tets that carry quadratic (P2) fields.
+
+    ``wall_mm`` applies within ``band_mm`` of the cavity (the thin walls), growing to
+    ``max_mm`` farther away (bottom layer, end wall).
+    """
+
+    wall_mm: float = 1.6
+    max_mm: float = 4.0
+    band_mm: float = 1.0
+    half: bool = True
+
+    def refined(self, factor: float) -> MeshSize:
+        return MeshSize(self.wall_mm / factor, self.max_mm / factor, self.band_mm, self.half)
+
+
+@dataclass(frozen=True)
+class MeshQuality:
+    n_nodes: int
+    n_tets: int
+    min_gamma: float  # gmsh's inscribed/circumscribed radius ratio, 1 = regular
+    mean_gamma: float
+    min_volume_mm3: float
+
+
+def _cores(design: Design):
+    """Axis-aligned boxes of the air cavity (chambers and channel), with the bore tail."""
+    c, z0 = design.chambers, design.top_z0_mm
+    boxes = [(design.cavity_x_mm(i), (-c.width_mm / 2, c.width_mm / 2), (z0, z0 + c.height_mm))
+             for i in range(c.count)]
+    w = design.channel.width_mm / 2
+    boxes.append((design.channel_x_mm, (-w, w), (z0, z0 + design.channel.height_mm)))
+    r = design.inlet.diameter_mm / 2
+    zc = design.inlet_axis_z_mm
+    boxes.append(((design.channel_x_mm[0], design.inlet_depth_mm), (-r, r), (zc - r, zc + r)))
+    return boxes
+
+
+def _inside(points: np.ndarray, boxes, tol: float = _TOL) -> np.ndarray:
+    mask = np.zeros(len(points), bool)
+    for (x0, x1), (y0, y1), (z0, z1) in boxes:
+        mask |= ((points[:, 0] >= x0 - tol) & (points[:, 0] <= x1 + tol) & (points[:, 1] >= y0 - tol)
+                 & (points[:, 1] <= y1 + tol) & (points[:, 2] >= z0 - tol) & (points[:, 2] <= z1 + tol))
+    return mask
+
+
+def boundary_facets(tets: np.ndarray) -> np.ndarray:
+    """Facets that belong to one tetrahedron only, wound with the outward normal."""
+    # faces of a positively oriented tet (0,1,2,3) with outward normals
+    local = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    faces = tets[:, local].reshape(-1, 3)
+    key = np.sort(faces, axis=1)
+    _, index, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    return faces[index[counts == 1]]
+
+
+def name_facets(nodes: np.ndarray, facets: np.ndarray, design: Design, half: bool) -> dict[str, np.ndarray]:
+    p = nodes[facets]
+    centre = p.mean(axis=1)
+    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    x, z = centre[:, 0], centre[:, 2]
+    on_symmetry = (np.abs(centre[:, 1]) < _TOL) & (normal[:, 1] < -0.99) if half else np.zeros(len(p), bool)
+    cavity = _inside(centre, _cores(design)) & ~on_symmetry
+    proximal = x <= clamp_end_mm(design) + _TOL
+    top = (np.abs(z - design.height_mm) < _TOL) & (normal[:, 2] > 0.99)
+    bottom = (np.abs(z) < _TOL) & (normal[:, 2] < -0.99)
+    px, py = design.paper_size_mm
+    i = design.paper.inset_mm
+    under_paper = bottom & (x >= i - _TOL) & (x <= i + px + _TOL) & (np.abs(centre[:, 1]) <= py / 2 + _TOL)
+    free_end = (np.abs(x - design.length_mm) < _TOL) & (normal[:, 0] > 0.99)
+    named = {CAVITY: cavity, CLAMP: proximal & (top | bottom), STRAIN_LIMITING_LAYER: under_paper,
+             FREE_END: free_end}
+    if half:
+        named[SYMMETRY] = on_symmetry
+    return {k: facets[v] for k, v in named.items()}
+
+
+def _geometry(step: Path, design: Design, half: bool) -> list[int]:
+    occ = gmsh.model.occ
+    entities = occ.importShapes(str(step))
+    solids = [t for d, t in entities if d == 3]
+    if len(solids) != 1:
+        raise MeshingError(f"{step}: expected one solid, found {len(solids)}")
+    r = design.inlet.diameter_mm / 2 * 1.001
+    tube = occ.addCylinder(0, 0, design.inlet_axis_z_mm, design.channel_x_mm[0], 0, 0, r)
+    out, _ = occ.fuse([(3, solids[0])], [(3, tube)])
+    if half:
+        L, W, H = design.length_mm, design.width_mm, design.height_mm
+        keep = occ.addBox(-1, 0, -1, L + 2, W / 2 + 1, H + 2)
+        out, _ = occ.intersect(out, [(3, keep)])
+    occ.synchronize()
+    if len(gmsh.model.getEntities(3)) != 1:
+        raise MeshingError(f"{step}: filling the inlet gave {len(gmsh.model.getEntities(3))} solids")
+    # imprint the paper's outline on the bottom face and the clamp's end on the top and
+    # bottom faces, so that the mesh conforms to both
+    px, py = design.paper_size_mm
+    y0 = 0.0 if half else -py / 2
+    paper = occ.addRectangle(design.paper.inset_mm, y0, 0.0, px, py / 2 if half else py)
+    x_clamp = clamp_end_mm(design)
+    cut = occ.addRectangle(-2.0, -design.width_mm, 0.0, design.height_mm + 4, 2 * design.width_mm)
+    occ.rotate([(2, cut)], 0, 0, 0, 0, 1, 0, -np.pi / 2)
+    occ.translate([(2, cut)], x_clamp, 0, 0)
+    occ.fragment(gmsh.model.occ.getEntities(3), [(2, paper), (2, cut)])
+    occ.synchronize()
+    loose = [(2, t) for _, t in gmsh.model.getEntities(2) if len(gmsh.model.getAdjacencies(2, t)[0]) == 0]
+    occ.remove(loose, recursive=True)
+    occ.synchronize()
+    return [t for _, t in gmsh.model.getEntities(3)]
+
+
+def clamp_end_mm(design: Design) -> float:
+    """x where the proximal chamber (its cavity and distal wall) ends: the clamp's extent."""
+    return design.cavity_x_mm(0)[1] + design.chambers.inside_wall_mm
+
+
+def _size_field(design: Design, size: MeshSize) -> None:
+    """Fine within the band around the cavity faces, coarse elsewhere."""
+    surfaces = gmsh.model.getEntities(2)
+    cores = _cores(design)
+    near = []
+    for _, tag in surfaces:
+        c = np.asarray(gmsh.model.occ.getCenterOfMass(2, tag))[None, :]
+        if _inside(c, cores)[0]:
+            near.append(tag)
+    field = gmsh.model.mesh.field
+    dist = field.add("Distance")
+    field.setNumbers(dist, "SurfacesList", near)
+    thr = field.add("Threshold")
+    field.setNumber(thr, "InField", dist)
+    field.setNumber(thr, "SizeMin", size.wall_mm)
+    field.setNumber(thr, "SizeMax", size.max_mm)
+    field.setNumber(thr, "DistMin", size.band_mm)
+    field.setNumber(thr, "DistMax", size.band_mm + 3 * size.max_mm)
+    field.setAsBackgroundMesh(thr)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+
+
+def mesh_actuator(step: str | Path, design: Design, size: MeshSize | None = None) -> tuple[TetMesh, MeshQuality]:
+    """Tetrahedral mesh of the actuator STEP with named boundaries, and its quality."""
+    size = size or MeshSize()
+    step = Path(step)
+    if not step.is_file():
+        raise MeshingError(f"{step}: no such STEP file")
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 2)
+        gmsh.model.add("actuator")
+        try:
+            volumes = _geometry(step, design, size.half)
+            _size_field(design, size)
+            gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT, parallel
+            gmsh.option.setNumber("Mesh.Optimize", 1)
+            gmsh.model.mesh.generate(3)
+        except MeshingError:
+            raise
+        except Exception as err:
+            raise MeshingError(f"{step}: gmsh failed: {err}") from err
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        etypes, etags, enodes = gmsh.model.mesh.getElements(3)
+        if list(etypes) != [4]:
+            raise MeshingError(f"{step}: expected linear tetrahedra, got element types {list(etypes)}")
+        gamma = np.asarray(gmsh.model.mesh.getElementQualities(etags[0], "gamma"))
+        del volumes
+    finally:
+        gmsh.finalize()
+    index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+    index[tags] = np.arange(len(tags))
+    nodes = np.asarray(coords, float).reshape(-1, 3)
+    tets = index[np.asarray(enodes[0], dtype=np.int64).reshape(-1, 4)]
+    used = np.unique(tets)
+    remap = np.full(len(nodes), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    nodes, tets = nodes[used], remap[tets]
+    p = nodes[tets]
+    vol = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]) / 6
+    tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
+    facets = name_facets(nodes, boundary_facets(tets), design, size.half)
+    for name in (CAVITY, CLAMP, FREE_END):
+        if len(facets[name]) == 0:
+            raise MeshingError(f"{step}: no facets found for the boundary {name!r}")
+    mesh = TetMesh(nodes, tets, facets, {ELASTOMER: np.arange(len(tets))},
+                   tip_mm=(design.length_mm, 0.0, 0.0), half=size.half)
+    quality = MeshQuality(len(nodes), len(tets), float(gamma.min()), float(gamma.mean()),
+                          float(np.abs(vol).min()))
+    log.info("meshed %s: %d nodes, %d tets, min gamma %.3f", step.name, len(nodes), len(tets), quality.min_gamma)
+    return mesh, quality

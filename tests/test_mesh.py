@@ -1,0 +1,78 @@
+"""gmsh meshes the exported STEP: volumes, named boundaries, outward facets, no state left."""
+
+from __future__ import annotations
+
+import gmsh
+import numpy as np
+import pytest
+
+from pnmold.mesh import MeshSize, boundary_facets, mesh_actuator
+from pnmold.tetmesh import CAVITY, CLAMP, FREE_END, STRAIN_LIMITING_LAYER, SYMMETRY
+from tests.closed_form import cavity_mm3, part_volumes_mm3
+
+
+def _enclosed(nodes, facets):
+    p = nodes[facets]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+
+
+@pytest.fixture(scope="module")
+def fpn_mesh(built):
+    result = built("fpn")
+    return result.design, *mesh_actuator(result.out_dir / "actuator.step", result.design)
+
+
+def test_mesh_volume_is_the_actuator_with_the_tube_in_the_bore(fpn_mesh):
+    design, mesh, quality = fpn_mesh
+    r = design.inlet.diameter_mm / 2
+    tube = np.pi * r * r * design.channel_x_mm[0]  # the tube refills the bore up to the channel
+    expected = part_volumes_mm3(design)["actuator"] + tube
+    assert mesh.half and 2 * mesh.volume_mm3() == pytest.approx(expected, rel=2e-3)
+    assert quality.n_tets == mesh.n_tets and quality.min_gamma > 0.01
+
+
+def test_cavity_is_closed_and_has_its_closed_form_volume(fpn_mesh):
+    design, mesh, _ = fpn_mesh
+    # facets point out of the solid, i.e. into the air: the enclosed volume comes out negative;
+    # the y = 0 cut adds nothing (x . n = 0 there), so twice the half is the whole cavity
+    assert -2 * _enclosed(mesh.nodes_mm, mesh.facets[CAVITY]) == pytest.approx(cavity_mm3(design), rel=2e-3)
+
+
+def test_every_boundary_facet_points_outward():
+    # a unit cube split into tets: the outward-wound boundary encloses +1
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]], float)
+    tets = np.array([[0, 1, 3, 7], [0, 3, 2, 7], [0, 2, 6, 7], [0, 6, 4, 7], [0, 4, 5, 7], [0, 5, 1, 7]])
+    p = nodes[tets]
+    vol = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
+    tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
+    facets = boundary_facets(tets)
+    assert len(facets) == 12
+    assert _enclosed(nodes, facets) == pytest.approx(1.0)
+
+
+def test_named_boundaries_lie_where_the_supplement_puts_them(fpn_mesh):
+    design, mesh, _ = fpn_mesh
+    nodes = mesh.nodes_mm
+    clamp = nodes[mesh.facets[CLAMP]].reshape(-1, 3)
+    assert clamp[:, 0].max() <= design.cavity_x_mm(0)[1] + design.chambers.inside_wall_mm + 1e-6
+    assert set(np.round(clamp[:, 2], 6)) == {0.0, round(design.height_mm, 6)}  # top and bottom faces
+    paper = nodes[mesh.facets[STRAIN_LIMITING_LAYER]].reshape(-1, 3)
+    assert np.allclose(paper[:, 2], 0.0)
+    px, py = design.paper_size_mm
+    area = 2 * sum(0.5 * np.linalg.norm(np.cross(t[1] - t[0], t[2] - t[0]))
+                   for t in nodes[mesh.facets[STRAIN_LIMITING_LAYER]])
+    assert area == pytest.approx(px * py, rel=1e-6)
+    assert np.allclose(nodes[mesh.facets[FREE_END]][..., 0], design.length_mm)
+    assert np.allclose(nodes[mesh.facets[SYMMETRY]][..., 1], 0.0)
+
+
+def test_no_gmsh_state_is_left(fpn_mesh):
+    assert not gmsh.isInitialized()
+
+
+def test_finer_size_gives_more_elements(built):
+    result = built("spn")
+    coarse, _ = mesh_actuator(result.out_dir / "actuator.step", result.design, MeshSize(2.0, 5.0))
+    fine, _ = mesh_actuator(result.out_dir / "actuator.step", result.design, MeshSize(2.0, 5.0).refined(1.5))
+    assert fine.n_tets > 1.5 * coarse.n_tets
+    assert 2 * fine.volume_mm3() == pytest.approx(2 * coarse.volume_mm3(), rel=1e-6)
