@@ -79,10 +79,10 @@ def _slide_clearance(files: BuildFiles) -> Finding:
     if interior is None or exterior is None:
         return _missing("clearance.slide.interior", ["mold_interior", "mold_exterior"])
     big = 10 * (d.length_mm + d.width_mm + d.height_mm)
-    below = d.top_z0_mm - d.mold.plate_mm / 2  # the plate's lower half, clear of the seat
-    plate = interior ^ S.box((-big, -big, -big), (big, big, below))
+    below = S.box((-big, -big, -big), (big, big, d.top_z0_mm - 0.01))  # under the seat plane
+    plate, walls = interior ^ below, exterior ^ below
     designed = d.mold.clearance_mm
-    gap = float(plate.min_gap(exterior, 2 * designed + d.mold.plate_mm))
+    gap = float(plate.min_gap(walls, 2 * designed + 1.0))
     ok = abs(gap - designed) <= max(0.02, 0.1 * designed)
     return Finding("clearance.slide.interior", ok, gap, designed,
                    f"side clearance of the interior plate in the exterior mold's recess: "
