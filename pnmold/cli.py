@@ -74,6 +74,25 @@ def cmd_templates(args) -> int:
     return 0
 
 
+def cmd_material_fit(args) -> int:
+    from pnmold.materials import fit_command
+
+    result = fit_command(args.tensile, args.model, json_path=args.json)
+    out_console.print(escape(result.summary()))
+    if result.plot:
+        out_console.print(f"plot: {result.plot}")
+    return 0
+
+
+def cmd_material_list(args) -> int:
+    from pnmold.materials import list_materials
+
+    for m in list_materials():
+        out_console.print(f"{m.name:<18} Yeoh C10 {m.c10_mpa:g}, C20 {m.c20_mpa:g}, C30 {m.c30_mpa:g} MPa; "
+                          f"{m.density_g_per_ml:g} g/mL; A:B {m.mix_ratio_a_to_b:g}")
+    return 0
+
+
 def _add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:
     if default is None:
         parser.add_argument("design", help="template name (see `pnmold templates`) or TOML file")
@@ -106,6 +125,20 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
     p.add_argument("--quiet", action="store_true", help="print only failures")
     p.set_defaults(handler=cmd_check)
+
+    p = sub.add_parser("material", help="elastomer library and hyperelastic fits",
+                       description="The elastomer library, and hyperelastic fits of tensile tests.")
+    msub = p.add_subparsers(dest="material_verb", required=True, metavar="ACTION")
+    q = msub.add_parser("fit", help="fit a uniaxial tensile test (CSV: eng_strain, eng_stress_mpa)",
+                        description="Fit an incompressible hyperelastic model to engineering "
+                        "stress-strain data; prints the constants, R2 and the strain range where "
+                        "the fit holds, and writes a plot like the supplement's Fig. S4.")
+    q.add_argument("tensile", metavar="TENSILE.csv")
+    q.add_argument("--model", choices=["yeoh", "neo-hookean", "ogden"], default="yeoh")
+    q.add_argument("--json", metavar="FILE", help="write the fit as JSON (the plot goes beside it)")
+    q.set_defaults(handler=cmd_material_fit)
+    q = msub.add_parser("list", help="list the material library", description="List the material library.")
+    q.set_defaults(handler=cmd_material_list)
 
     p = sub.add_parser("templates", help="list the design templates",
                        description="List the design templates with one line each.")

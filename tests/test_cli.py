@@ -84,3 +84,26 @@ def test_help_on_every_verb(verb, capsys):
 def test_bad_usage_exits_2():
     assert main(["build", "--no-such-option"]) == 2
     assert main([]) == 2
+
+
+def test_material_fit_writes_the_constants_by_name(tmp_path, capsys):
+    out = tmp_path / "fit.json"
+    assert main(["material", "fit", "tests/data/ecoflex0030_uniaxial_tension.csv", "--json", str(out)]) == 0
+    fit = json.loads(out.read_text())
+    assert {"c10_mpa", "c20_mpa", "c30_mpa", "r2", "strain_range"} <= set(fit)
+    assert fit["r2"] >= 0.99 and fit["strain_range"][1] > fit["strain_range"][0]
+    assert (tmp_path / "fit.png").stat().st_size > 1000
+    assert "holds over strain" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("text", ["", "a,b\n1,2\n", "eng_strain,eng_stress_mpa\n0.1,x\n0.2,0.1\n0.3,0.2\n0.4,0.3\n",
+                                  "eng_strain,eng_stress_mpa\n-0.1,0\n0.2,0.1\n0.3,0.2\n0.4,0.3\n"],
+                         ids=["empty", "wrong-columns", "non-number", "negative-strain"])
+def test_material_fit_refuses_damaged_files_with_file_and_line(text, tmp_path, capsys):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    json_out = tmp_path / "fit.json"
+    assert main(["material", "fit", str(path), "--json", str(json_out)]) == 2
+    err = capsys.readouterr().err
+    assert "bad.csv" in err and "line" in err
+    assert not json_out.exists()

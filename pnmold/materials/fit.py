@@ -1,0 +1,384 @@
+"""Hyperelastic fits of uniaxial tensile (and compression) tests.
+
+The specimen is incompressible and loaded uniaxially: with the stretch ``lam = 1 + eng_strain``,
+``I1 = lam**2 + 2/lam`` and the nominal (engineering) stress is
+
+- I1-based models (Yeoh, neo-Hookean): ``P = 2 (lam - lam**-2) dW/dI1`` with
+  ``W = sum_i C_i0 (I1 - 3)**i`` (Yeoh N = 3; neo-Hookean N = 1); initial shear modulus ``2 C10``.
+- Ogden (Abaqus form) ``W = sum_i 2 mu_i / alpha_i**2 (l1**a_i + l2**a_i + l3**a_i - 3)``:
+  ``P = sum_i 2 mu_i / alpha_i (lam**(alpha_i - 1) - lam**(-alpha_i/2 - 1))``;
+  initial shear modulus ``sum_i mu_i``.
+
+Constants are in MPa (``c10_mpa``, ``mu1_mpa``), exponents are plain numbers (``alpha1``).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from pnmold.errors import RecordingError, UsageError
+from pnmold.fsutil import write_json
+
+log = logging.getLogger(__name__)
+
+MODELS = ("yeoh", "neo-hookean", "ogden")
+#: the fit "holds" over a strain range when R^2 >= R2_MIN over it and at every point in it
+#: |model - measured| <= ERROR_FRACTION * max(|measured|, FLOOR_FRACTION * peak |measured|)
+R2_MIN = 0.99
+ERROR_FRACTION = 0.10
+FLOOR_FRACTION = 0.05
+#: a pull-to-failure test has failed at the first point whose stress falls more than this
+#: fraction of the peak stress below the highest stress seen so far
+FAILURE_DROP = 0.10
+_MIN_POINTS = 4
+
+__all__ = ["MODELS", "FitResult", "TensileData", "fit_command", "fit_hyperelastic", "read_tensile"]
+
+_STRAIN, _STRESS, _MODE = "eng_strain", "eng_stress_mpa", "mode"
+
+
+@dataclass(frozen=True)
+class TensileData:
+    """A uniaxial test in engineering strain and stress (MPa), in recorded order.
+
+    ``mode`` is "tension" or "compression" per point; compression points (negative strain)
+    are only read from files with a ``mode`` column.
+    """
+
+    strain: np.ndarray
+    stress_mpa: np.ndarray
+    mode: tuple[str, ...]
+    path: str
+    lines: tuple[int, ...]
+
+
+def _number(text: str, path: str, line: int, column: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise RecordingError(path, line, f"{text.strip()!r} is not a number", column=column) from None
+    if not math.isfinite(value):
+        raise RecordingError(path, line, f"{text.strip()!r} is not a finite number", column=column)
+    return value
+
+
+def _header(rows: list[tuple[int, list[str]]], path: str, n_lines: int) -> tuple[int, dict[str, int]]:
+    """Line and name -> index of the header row (first row that is not a ``#`` comment)."""
+    if not rows and n_lines == 0:
+        raise RecordingError(path, 1, "empty file; expected a header row with eng_strain, eng_stress_mpa")
+    if not rows:
+        raise RecordingError(path, n_lines, "no header row after the comment lines; expected eng_strain, "
+                             "eng_stress_mpa")
+    line, cells = rows[0]
+    names = [c.strip().lower() for c in cells]
+    try:
+        [float(c) for c in cells if c.strip()]
+    except ValueError:
+        pass
+    else:
+        raise RecordingError(path, line, "no header row: expected column names eng_strain, eng_stress_mpa, got numbers")
+    index = {}
+    for i, name in enumerate(names):
+        if name in index and name in (_STRAIN, _STRESS, _MODE):
+            raise RecordingError(path, line, f"column {name!r} appears twice", column=cells[i].strip())
+        index.setdefault(name, i)
+    missing = [n for n in (_STRAIN, _STRESS) if n not in index]
+    if missing:
+        found = ", ".join(c.strip() for c in cells) or "nothing"
+        raise RecordingError(path, line, f"missing column(s) {', '.join(missing)} (case-insensitive); found: {found}",
+                             column=missing[0])
+    return line, index
+
+
+def read_tensile(path: str | Path) -> TensileData:
+    """Read a tensile test CSV: columns ``eng_strain``, ``eng_stress_mpa`` (case-insensitive).
+
+    ``#`` comment lines may come before the header; other columns are ignored. With a ``mode``
+    column (``tension``/``compression``) compression rows with negative strain are read too;
+    without it the file is a tension test and a negative strain is refused.
+    """
+    path = str(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8-sig")
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such tensile test file") from None
+    except IsADirectoryError:
+        raise UsageError(f"{path}: is a folder, not a tensile test file") from None
+    except UnicodeDecodeError as err:
+        raise RecordingError(path, None, f"not UTF-8 text ({err.reason})") from None
+    rows, in_header, lines = [], True, text.splitlines()
+    for n, cells in enumerate(csv.reader(lines), start=1):
+        if not cells or not "".join(cells).strip():
+            continue
+        if in_header and cells[0].lstrip().startswith("#"):
+            continue
+        in_header = False
+        rows.append((n, cells))
+    header_line, index = _header(rows, path, len(lines) if text.strip() else 0)
+    has_mode = _MODE in index
+    names = {i: c.strip() for i, c in enumerate(rows[0][1])}
+    strain, stress, modes, where = [], [], [], []
+    for line, cells in rows[1:]:
+        need = max(index[_STRAIN], index[_STRESS], index.get(_MODE, 0))
+        if len(cells) <= need:
+            raise RecordingError(path, line, f"{len(cells)} values, the header has {len(rows[0][1])}",
+                                 column=names[len(cells)] if len(cells) in names else None)
+        e = _number(cells[index[_STRAIN]], path, line, names[index[_STRAIN]])
+        s = _number(cells[index[_STRESS]], path, line, names[index[_STRESS]])
+        mode = cells[index[_MODE]].strip().lower() if has_mode else "tension"
+        col = names[index[_STRAIN]]
+        if mode not in ("tension", "compression"):
+            raise RecordingError(path, line, f"mode must be tension or compression, got {mode!r}",
+                                 column=names[index[_MODE]])
+        if e <= -1.0:
+            raise RecordingError(path, line, f"strain {e} would compress the specimen to nothing (needs > -1)",
+                                 column=col)
+        if mode == "tension" and e < 0:
+            why = "a tension row" if has_mode else "a tension test (no mode column)"
+            raise RecordingError(path, line, f"negative strain {e} in {why}", column=col)
+        if mode == "compression" and e > 0:
+            raise RecordingError(path, line, f"positive strain {e} in a compression row", column=col)
+        strain.append(e)
+        stress.append(s)
+        modes.append(mode)
+        where.append(line)
+    if len(strain) < _MIN_POINTS:
+        raise RecordingError(path, rows[-1][0] if len(rows) > 1 else header_line,
+                             f"only {len(strain)} data rows; a fit needs at least {_MIN_POINTS}")
+    return TensileData(np.array(strain), np.array(stress), tuple(modes), path, tuple(where))
+
+
+def _i1_factor(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(2 (lam - lam^-2), I1 - 3) for incompressible uniaxial loading."""
+    return 2.0 * (lam - lam**-2), lam**2 + 2.0 / lam - 3.0
+
+
+def yeoh_stress(strain, c10: float, c20: float = 0.0, c30: float = 0.0) -> np.ndarray:
+    """Nominal uniaxial stress (MPa) of a Yeoh solid at engineering ``strain``."""
+    g, i1 = _i1_factor(1.0 + np.asarray(strain, dtype=float))
+    return g * (c10 + 2.0 * c20 * i1 + 3.0 * c30 * i1**2)
+
+
+def ogden_stress(strain, mus, alphas) -> np.ndarray:
+    """Nominal uniaxial stress (MPa) of an Ogden solid (Abaqus form) at engineering ``strain``."""
+    lam = 1.0 + np.asarray(strain, dtype=float)
+    out = np.zeros_like(lam)
+    for mu, alpha in zip(mus, alphas, strict=True):
+        out += 2.0 * mu / alpha * (lam ** (alpha - 1.0) - lam ** (-alpha / 2.0 - 1.0))
+    return out
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted hyperelastic model and how well it reproduces the measured stress."""
+
+    model: str
+    constants: dict[str, float]
+    r2: float
+    rmse_mpa: float
+    strain_range: tuple[float, float] | None
+    n_points: int
+    n_dropped_after_failure: int
+    initial_shear_modulus_mpa: float
+    source: str
+    max_strain: float | None = None
+    plot: str | None = None
+
+    def fitted(self, data: TensileData) -> np.ndarray:
+        """Mask of the points of ``data`` that this fit used (before failure, up to ``max_strain``)."""
+        mask = np.arange(len(data.strain)) < len(data.strain) - self.n_dropped_after_failure
+        return mask & (data.strain <= self.max_strain) if self.max_strain is not None else mask
+
+    def stress(self, strain) -> np.ndarray:
+        """The fitted model's nominal stress (MPa) at engineering ``strain``."""
+        c = self.constants
+        if self.model == "ogden":
+            n = sum(1 for k in c if k.startswith("alpha"))
+            return ogden_stress(strain, [c[f"mu{i}_mpa"] for i in range(1, n + 1)],
+                                [c[f"alpha{i}"] for i in range(1, n + 1)])
+        return yeoh_stress(strain, c["c10_mpa"], c.get("c20_mpa", 0.0), c.get("c30_mpa", 0.0))
+
+    def to_json(self) -> dict:
+        """Plain JSON: the constants by name with units, both nested and at the top level."""
+        out = {"model": self.model, "constants": dict(self.constants), **self.constants,
+               "initial_shear_modulus_mpa": self.initial_shear_modulus_mpa,
+               "r2": self.r2, "rmse_mpa": self.rmse_mpa,
+               "strain_range": list(self.strain_range) if self.strain_range else None,
+               "strain_range_rule": {"r2_min": R2_MIN, "max_relative_error": ERROR_FRACTION,
+                                     "error_floor_fraction_of_peak_stress": FLOOR_FRACTION},
+               "n_points": self.n_points, "n_dropped_after_failure": self.n_dropped_after_failure,
+               "max_strain": self.max_strain, "source": self.source}
+        if self.plot:
+            out["plot"] = self.plot
+        return out
+
+    def summary(self) -> str:
+        """One line for a person: the constants, R^2 and the valid strain range."""
+        consts = ", ".join(f"{k} = {v:.4g}" for k, v in self.constants.items())
+        rng = (f"strain {self.strain_range[0]:.3g} to {self.strain_range[1]:.3g}" if self.strain_range
+               else "no strain range meets the tolerance")
+        return f"{self.model}: {consts}; R2 = {self.r2:.5f}, RMSE = {self.rmse_mpa:.3g} MPa; holds over {rng}"
+
+
+def _before_failure(data: TensileData) -> int:
+    """Number of leading tension points recorded before the specimen failed."""
+    stress = data.stress_mpa
+    tension = data.strain >= 0
+    if not tension.any():
+        return len(stress)
+    peak = float(stress[tension].max())
+    running = -math.inf
+    for i, (s, t) in enumerate(zip(stress, tension, strict=True)):
+        if not t:
+            continue
+        if s < running - FAILURE_DROP * abs(peak):
+            return i
+        running = max(running, s)
+    return len(stress)
+
+
+def _goodness(measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float]:
+    res = predicted - measured
+    ss_tot = float(np.sum((measured - measured.mean()) ** 2))
+    r2 = 1.0 - float(np.sum(res**2)) / ss_tot if ss_tot > 0 else -math.inf
+    return r2, float(np.sqrt(np.mean(res**2)))
+
+
+def valid_strain_range(strain: np.ndarray, measured: np.ndarray, predicted: np.ndarray) -> tuple[float, float] | None:
+    """The largest strain range over which the fit holds (lowest first on ties), or None.
+
+    Every point in it has ``|error| <= ERROR_FRACTION * max(|stress|, FLOOR_FRACTION * peak)``
+    (the local relative error, with a floor near zero stress; a toe-region point at the start
+    of a test can fall outside) and R^2 over it is >= R2_MIN (trimmed from its worse end).
+    """
+    order = np.argsort(strain, kind="stable")
+    e, s, p = strain[order], measured[order], predicted[order]
+    tol = ERROR_FRACTION * np.maximum(np.abs(s), FLOOR_FRACTION * float(np.max(np.abs(s))))
+    ok = np.abs(p - s) <= tol
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
+    runs = list(zip(edges[::2], edges[1::2], strict=True))  # [start, stop) of each run of ok points
+    if not runs:
+        return None
+    lo, hi = max(runs, key=lambda r: (r[1] - r[0], -r[0]))
+    ratio = np.abs(p - s) / tol
+    while hi - lo >= _MIN_POINTS and _goodness(s[lo:hi], p[lo:hi])[0] < R2_MIN:
+        lo, hi = (lo + 1, hi) if ratio[lo] >= ratio[hi - 1] else (lo, hi - 1)
+    return (float(e[lo]), float(e[hi - 1])) if hi - lo >= _MIN_POINTS else None
+
+
+def _fit_yeoh(e: np.ndarray, s: np.ndarray, order: int, nonnegative: bool) -> dict[str, float]:
+    g, i1 = _i1_factor(1.0 + e)
+    basis = np.column_stack([g, 2 * g * i1, 3 * g * i1**2][:order])
+    scale = np.max(np.abs(basis), axis=0)
+    scale[scale == 0] = 1.0
+    a = basis / scale
+    guess = np.linalg.lstsq(a, s, rcond=None)[0]
+    # C10 > 0 keeps the initial shear modulus positive; higher orders free unless asked
+    lo = np.array([1e-12 * scale[0]] + [0.0 if nonnegative else -np.inf] * (order - 1))
+    guess = np.clip(guess, lo + 1e-12, np.inf)
+    sol = least_squares(lambda x: a @ x - s, guess, bounds=(lo, np.inf), method="trf",
+                        x_scale="jac", ftol=1e-15, xtol=1e-15, gtol=1e-15)
+    names = ("c10_mpa", "c20_mpa", "c30_mpa")[:order]
+    return {n: float(v) for n, v in zip(names, sol.x / scale, strict=True)}
+
+
+def _fit_ogden(e: np.ndarray, s: np.ndarray, terms: int) -> dict[str, float]:
+    """Multi-start fit; each term keeps mu_i * alpha_i > 0 (signs fixed per start)."""
+    starts = {1: [(2.0,), (5.0,), (-2.0,), (1.0,)],
+              2: [(2.0, 5.0), (1.5, 8.0), (2.0, -2.0), (3.0, -3.0), (1.0, 4.0), (0.5, 3.0)]}[terms]
+    scale = max(float(np.max(np.abs(s))), 1e-12)
+    best, best_cost = None, math.inf
+    for alphas in starts:
+        signs = np.sign(alphas)
+        lo = np.concatenate([np.where(signs > 0, 0.0, -np.inf), np.where(signs > 0, 0.1, -20.0)])
+        hi = np.concatenate([np.where(signs > 0, np.inf, 0.0), np.where(signs > 0, 20.0, -0.1)])
+        x0 = np.concatenate([signs * scale / (terms * 10.0), alphas])
+
+        def resid(x):
+            with np.errstate(over="ignore", invalid="ignore"):
+                r = (ogden_stress(e, x[:terms], x[terms:]) - s) / scale
+            return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
+
+        try:
+            sol = least_squares(resid, x0, bounds=(lo, hi), method="trf", max_nfev=4000)
+        except ValueError:
+            continue
+        if sol.cost < best_cost:
+            best, best_cost = sol.x, sol.cost
+    if best is None:
+        raise UsageError("the Ogden fit found no solution from any starting point")
+    out = {}
+    for i in range(terms):
+        out[f"mu{i + 1}_mpa"] = float(best[i])
+        out[f"alpha{i + 1}"] = float(best[terms + i])
+    return out
+
+
+def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, nonnegative: bool = False,
+                     max_strain: float | None = None) -> FitResult:
+    """Fit an incompressible hyperelastic model to uniaxial engineering stress-strain data.
+
+    Parameters
+    ----------
+    data : the test (see :func:`read_tensile`); points after failure are dropped.
+    model : ``"yeoh"`` (C10 > 0, C20 and C30 free), ``"neo-hookean"`` or ``"ogden"``.
+    terms : number of Ogden terms (1 or 2).
+    nonnegative : Yeoh only: also keep C20, C30 >= 0 (as the design's ``[material]`` rules require).
+    max_strain : fit only the points up to this strain (e.g. the strains an actuator's walls reach).
+    """
+    model = model.lower().replace("_", "-")
+    if model in ("neohookean", "neo hookean"):
+        model = "neo-hookean"
+    if model not in MODELS:
+        raise UsageError(f"unknown model {model!r}; models: {', '.join(MODELS)}")
+    if terms not in (1, 2):
+        raise UsageError(f"an Ogden fit takes 1 or 2 terms, got {terms}")
+    keep = _before_failure(data)
+    e, s = data.strain[:keep], data.stress_mpa[:keep]
+    if max_strain is not None:
+        e, s = e[e <= max_strain], s[e <= max_strain]
+    if len(e) < _MIN_POINTS:
+        raise UsageError(f"{data.path}: only {len(e)} points before failure; a fit needs at least {_MIN_POINTS}")
+    if model == "ogden":
+        constants = _fit_ogden(e, s, terms)
+        mu0 = sum(v for k, v in constants.items() if k.startswith("mu"))
+    else:
+        constants = _fit_yeoh(e, s, 3 if model == "yeoh" else 1, nonnegative)
+        mu0 = 2.0 * constants["c10_mpa"]
+    result = FitResult(model=model, constants=constants, r2=math.nan, rmse_mpa=math.nan, strain_range=None,
+                       n_points=len(e), n_dropped_after_failure=len(data.strain) - keep,
+                       initial_shear_modulus_mpa=float(mu0), source=data.path, max_strain=max_strain)
+    predicted = result.stress(e)
+    r2, rmse = _goodness(s, predicted)
+    rng = valid_strain_range(e, s, predicted)
+    log.info("%s fit of %s: R2 = %.5f over %d points", model, data.path, r2, len(e))
+    return dataclasses.replace(result, r2=r2, rmse_mpa=rmse, strain_range=rng)
+
+
+def fit_command(path: str | Path, model: str = "yeoh", json_path: str | Path | None = None,
+                plot_path: str | Path | None = None) -> FitResult:
+    """``pnmold material fit``: read, fit, plot and (optionally) write the JSON.
+
+    The plot goes to ``plot_path``, else beside the JSON (same name, ``.png``), else to
+    ``out/material-fit/<stem>.png``. Both files are written atomically.
+    """
+    from pnmold.materials.plot import plot_fit
+
+    data = read_tensile(path)
+    result = fit_hyperelastic(data, model)
+    if plot_path is None:
+        plot_path = (Path(json_path).with_suffix(".png") if json_path is not None
+                     else Path("out") / "material-fit" / f"{Path(path).stem}.png")
+    plot_fit(data, result, plot_path)
+    result = dataclasses.replace(result, plot=str(plot_path))
+    if json_path is not None:
+        write_json(json_path, result.to_json())
+    return result
