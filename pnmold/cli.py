@@ -93,6 +93,23 @@ def cmd_material_list(args) -> int:
     return 0
 
 
+def cmd_checklist(args) -> int:
+    from pnmold.checklist import checklist_sections, render_html, render_markdown
+    from pnmold.design import load_design
+    from pnmold.fsutil import write_text
+    from pnmold.pipeline import report_for
+
+    design = load_design(args.design, args.set)
+    sections = checklist_sections(design, report_for(design))
+    text = (render_html if args.format == "html" else render_markdown)(design, sections)
+    if args.out:
+        write_text(args.out, text)
+        out_console.print(f"wrote {args.out}")
+    else:
+        out_console.print(text, markup=False)
+    return 0
+
+
 def _add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:
     if default is None:
         parser.add_argument("design", help="template name (see `pnmold templates`) or TOML file")
@@ -125,6 +142,15 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
     p.add_argument("--quiet", action="store_true", help="print only failures")
     p.set_defaults(handler=cmd_check)
+
+    p = sub.add_parser("checklist", help="fabrication checklist with quantities from the geometry",
+                       description="The fabrication and testing checklist of a design, with elastomer "
+                       "amounts, paper size, inlet position, print settings and test pressures worked out. "
+                       "Uses out/<design>/report.json when it was built from this design.")
+    _add_design(p)
+    p.add_argument("--format", choices=["md", "html"], default="md")
+    p.add_argument("--out", metavar="FILE", help="write to FILE (default: print)")
+    p.set_defaults(handler=cmd_checklist)
 
     p = sub.add_parser("material", help="elastomer library and hyperelastic fits",
                        description="The elastomer library, and hyperelastic fits of tensile tests.")

@@ -15,6 +15,7 @@ from typing import Any
 
 import pnmold
 from pnmold import report as rep
+from pnmold.checklist import checklist_sections, render_markdown
 from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
 from pnmold.fsutil import staged_dir, write_json, write_text
@@ -96,4 +97,20 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
         if not fem:
             report["fem"]["reason"] = "skipped (--no-fem)"
         write_json(tmp / "report.json", report)
+        write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
     return BuildResult(design, final, report)
+
+
+def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, Any]:
+    """The build report of ``design``: the one in its build folder when that was built
+    from exactly this design (same digest), else a fresh geometry-only build's."""
+    import json
+    import tempfile
+
+    path = Path(out_dir or default_out_dir(design)) / "report.json"
+    if path.is_file():
+        report = json.loads(path.read_text())
+        if report.get("design", {}).get("digest") == rep.design_entry(design)["digest"]:
+            return report
+    with tempfile.TemporaryDirectory() as tmp:
+        return build(design, Path(tmp) / design.name, fem=False, use_slicer=False).report
