@@ -35,7 +35,7 @@ def test_every_stl_is_a_closed_consistently_wound_solid(built, template):
         assert surface_pieces(mesh) == 1, name
 
 
-@pytest.mark.parametrize("template", ["fpn", "spn"])
+@pytest.mark.parametrize("template", TEMPLATES)
 def test_step_reimports_in_gmsh_with_the_stl_volume(built, template):
     out = built(template).out_dir
     gmsh.initialize()
