@@ -12,7 +12,7 @@ from collections.abc import Callable, Sequence
 from rich.console import Console
 from rich.markup import escape
 
-from pnmold.errors import PnmoldError
+from pnmold.errors import PnmoldError, UsageError
 
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 out_console = Console(highlight=False, soft_wrap=True)
@@ -93,6 +93,38 @@ def cmd_material_list(args) -> int:
     return 0
 
 
+def cmd_simulate(args) -> int:
+    from pnmold.design import load_design
+    from pnmold.fsutil import write_json
+    from pnmold.recording import write_recording
+    from pnmold.simulate import SimulationRequest, parse_effects, parse_pressures, recording_columns, simulate_fe
+
+    if args.dynamic:
+        raise UsageError("--dynamic: the pneumatic dynamics are not available in this version")
+    if args.model != "fe":
+        raise UsageError(f"--model {args.model}: the reduced model is not available in this version (use fe)")
+    if args.cycles < 1:
+        raise UsageError("--cycles must be at least 1")
+    design = load_design(args.design, args.set)
+    request = SimulationRequest(parse_pressures(args.pressures), args.model, args.kind, args.cycles,
+                                args.orientation, parse_effects(args.effects))
+    doc = simulate_fe(design, request)
+    if args.json:
+        write_json(args.json, doc)
+    if args.recording:
+        meta = {"design": design.name, "orientation": doc["orientation"]}
+        write_recording(args.recording, args.kind, recording_columns(doc), meta)
+    if not args.quiet:
+        for s in doc["steps"]:
+            extra = f", force {s['force_n']:.3f} N" if "force_n" in s else ""
+            out_console.print(f"{s['pressure_kpa']:8.2f} kPa: bend {s['bend_angle_deg']:7.1f} deg, tip "
+                              f"({s['tip_x_mm']:.1f}, {s['tip_z_mm']:.1f}) mm, "
+                              f"cavity {s['cavity_volume_ml']:.3f} mL{extra}")
+        fb = doc["full_bend_pressure_kpa"]
+        out_console.print(f"full bend: {fb:.1f} kPa" if fb is not None else f"full bend: not reached ({doc['reason']})")
+    return 0
+
+
 def cmd_checklist(args) -> int:
     from pnmold.checklist import checklist_sections, render_html, render_markdown
     from pnmold.design import load_design
@@ -142,6 +174,25 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
     p.add_argument("--quiet", action="store_true", help="print only failures")
     p.set_defaults(handler=cmd_check)
+
+    p = sub.add_parser("simulate", help="quasi-static response (FE) as JSON or a recording",
+                       description="Solve the design's pressure curve with the FE model: free bending, "
+                       "pressure-volume, or blocked tip force; write it as JSON (pnmold.simulation/1) and/or "
+                       "as a recording in the lab format.")
+    _add_design(p)
+    p.add_argument("--pressures", default="0:40:5", metavar="A:B:STEP", help="kPa (default 0:40:5)")
+    p.add_argument("--model", choices=["fe", "rom"], default="fe")
+    p.add_argument("--kind", choices=["bending", "pv", "force"], default="bending")
+    p.add_argument("--cycles", type=int, default=1, help="inflate and deflate N times")
+    p.add_argument("--rate-kpa-per-s", type=float, default=None, help="ramp rate (recorded as metadata)")
+    p.add_argument("--effects", metavar="NAME=VALUE,...", help="physics effects (FE: gravity=0|1)")
+    p.add_argument("--orientation", choices=["chambers_up", "chambers_down", "horizontal", "submerged"],
+                   default="chambers_up", help="where gravity points (default chambers_up)")
+    p.add_argument("--dynamic", action="store_true", help="time response to a supply step")
+    p.add_argument("--recording", metavar="FILE.csv", help="write the result in the recording format")
+    p.add_argument("--json", metavar="FILE", help="write pnmold.simulation/1 JSON")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(handler=cmd_simulate)
 
     p = sub.add_parser("checklist", help="fabrication checklist with quantities from the geometry",
                        description="The fabrication and testing checklist of a design, with elastomer "

@@ -96,9 +96,24 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
         report = record_checks(report, checks)
         if not fem:
             report["fem"]["reason"] = "skipped (--no-fem)"
+        elif checks.failed:
+            report["fem"]["reason"] = "skipped: a design-rule check failed"
+        else:
+            report["fem"] = timed("fem", _quick_fe, design, tmp)
         write_json(tmp / "report.json", report)
         write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
     return BuildResult(design, final, report)
+
+
+def _quick_fe(design: Design, folder: Path) -> dict[str, Any]:
+    """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
+    from pnmold.quickfe import bending_figure, fem_report, run_fe
+
+    run = run_fe(design, folder / "actuator.step", keep_partial=True)
+    bending_figure(design, run, folder / "bending.png")
+    section = fem_report(run)
+    section["timings_s"] = run.timings_s
+    return section
 
 
 def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, Any]:

@@ -1,0 +1,46 @@
+"""Large-deformation FE of PneuNet actuators: quadratic tets, Yeoh elastomer, paper membrane.
+
+Takes a :class:`~pnmold.tetmesh.TetMesh`, a material and a load; never a design, never
+gmsh. Units at the API: mm, N, MPa, kPa (pressures), mL, g/mL, degrees.
+
+Formulation (details in the module docstrings):
+
+- :mod:`.material` -- Yeoh with isochoric I1bar on P2 tetrahedra; near-incompressibility by
+  a mean-dilatation (P2/P0, condensed) penalty K/mu = 200; the paper as a St.Venant-
+  Kirchhoff membrane (E*t exact, no bending stiffness).
+- :mod:`.model` -- scikit-fem mesh/element/quadrature/numbering, precomputed sparsity and
+  scatter maps; follower cavity pressure in reference form (Nanson), gravity, clamp,
+  y = 0 symmetry, a penalty contact plane for blocked force.
+- :mod:`.kernels` -- compiled element kernels (energy, residual, tangent).
+- :mod:`.newton` / :mod:`.linsolve` -- Newton with a guarded line search, adaptive load
+  steps with extrapolated predictors; PARDISO LDL^T with the analysis done once.
+- :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
+  :class:`Step` and :class:`Solution`.
+
+    >>> from pnmold.fem import solve_bending
+    >>> sol = solve_bending(mesh, max_pressure_kpa=80, gravity=(0, 0, -1))  # doctest: +SKIP
+    >>> sol.full_bend_pressure_kpa, sol.steps[-1].bend_angle_deg            # doctest: +SKIP
+"""
+
+from .material import Membrane, Yeoh
+from .model import Load, Model
+from .newton import Newton, NewtonOptions
+from .results import Solution, Step, full_bend_pressure
+from .solver import ELASTOSIL_M4601, PAPER, SolveOptions, solve_bending, solve_blocked_force
+
+__all__ = [
+    "ELASTOSIL_M4601",
+    "PAPER",
+    "Load",
+    "Membrane",
+    "Model",
+    "Newton",
+    "NewtonOptions",
+    "Solution",
+    "SolveOptions",
+    "Step",
+    "Yeoh",
+    "full_bend_pressure",
+    "solve_bending",
+    "solve_blocked_force",
+]

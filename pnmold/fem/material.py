@@ -1,0 +1,126 @@
+"""Materials of the FE model: the Yeoh elastomer and the strain-limiting membrane.
+
+Elastomer
+---------
+Strain energy per reference volume (supplement eq. 1, Abaqus Yeoh N = 3)::
+
+    W = C10 (I1b - 3) + C20 (I1b - 3)^2 + C30 (I1b - 3)^3 + U(J),   I1b = J^(-2/3) tr(F^T F)
+
+The supplement uses D_i = 0 (incompressible, Abaqus C3D10H hybrid elements). We use
+quadratic tetrahedra (P2) with a *penalty* U = K/2 (theta - 1)^2 and, by default,
+``volumetric="mean_dilatation"``: theta is the volume ratio of each element (current over
+reference volume), i.e. the P2/P0 mixed element with its constant pressure condensed
+element by element (Simo-Taylor-Pister). That imposes one volume constraint per tet
+instead of one per quadrature point (four), so it does not lock, and the unknowns and
+the solver stay displacement-only (symmetric, no saddle point). ``volumetric="penalty"``
+(U evaluated at each quadrature point) is kept for comparison; it locks as K grows
+(FEM_NOTES: K = 1000 mu collapsed).
+
+Default ``bulk_ratio`` K/mu = 200 (Poisson's ratio 0.4975). On the test beam (1 mm
+walls, 20 kPa) the tip moves 3.7% between K/mu = 200 and 1000 and 18% between 50 and
+1000 (``test_fem.py::test_bulk_ratio_sensitivity``); larger K costs Newton iterations
+(each linearised step over a rotation phi carries a spurious volume change ~ phi^2, so
+a stress ~ K phi^2): on an fPN body K/mu = 50 needed a third fewer factorisations than 200.
+The uniaxial and cylinder verifications use K/mu = 5000 against the incompressible
+closed forms.
+
+Membrane
+--------
+The paper sheet is a large-deformation St.Venant-Kirchhoff membrane (plane stress, Green
+-Lagrange strain) on the ``strain_limiting_layer`` facets: stretching stiffness E*t is
+exact and it adds no bending stiffness (the supplement's STRI65 shells add a tiny one).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import DesignError
+
+#: Mass density to force density: 1 g/mL under 1 g, in N/mm^3.
+G_STANDARD_N_PER_MM3_PER_G_PER_ML = 9.80665e-6
+
+VOLUMETRIC_TREATMENTS = ("mean_dilatation", "penalty")
+
+
+@dataclass(frozen=True)
+class Yeoh:
+    """Nearly incompressible Yeoh elastomer (defaults: Elastosil M4601).
+
+    Parameters
+    ----------
+    c10_mpa, c20_mpa, c30_mpa : Yeoh constants (supplement: 0.11, 0.02, 0 MPa).
+    density_g_per_ml : mass density (Wacker Elastosil M4601 datasheet: 1.13 g/mL).
+    bulk_ratio : K / mu of the volumetric penalty, mu = 2 C10.
+    volumetric : ``"mean_dilatation"`` (P2/P0, default) or ``"penalty"`` (pointwise).
+    """
+
+    c10_mpa: float = 0.11
+    c20_mpa: float = 0.02
+    c30_mpa: float = 0.0
+    density_g_per_ml: float = 1.13
+    bulk_ratio: float = 200.0
+    volumetric: str = "mean_dilatation"
+
+    def __post_init__(self) -> None:
+        if not self.c10_mpa > 0:
+            raise DesignError("c10_mpa", f"must be > 0, got {self.c10_mpa}")
+        if self.c20_mpa < 0 or self.c30_mpa < 0:
+            raise DesignError("c20_mpa", "C20 and C30 must be >= 0 (stable for all stretches)")
+        if self.density_g_per_ml < 0:
+            raise DesignError("density_g_per_ml", f"must be >= 0, got {self.density_g_per_ml}")
+        if not self.bulk_ratio > 1:
+            raise DesignError("bulk_ratio", f"K/mu must be > 1, got {self.bulk_ratio}")
+        if self.volumetric not in VOLUMETRIC_TREATMENTS:
+            raise DesignError("volumetric", f"one of {VOLUMETRIC_TREATMENTS}, "
+                              f"got {self.volumetric!r}")
+
+    @property
+    def shear_modulus_mpa(self) -> float:
+        """Initial shear modulus mu = 2 C10."""
+        return 2.0 * self.c10_mpa
+
+    @property
+    def bulk_modulus_mpa(self) -> float:
+        """Penalty bulk modulus K = bulk_ratio * mu."""
+        return self.bulk_ratio * self.shear_modulus_mpa
+
+    @property
+    def youngs_modulus_mpa(self) -> float:
+        """Small-strain Young's modulus 9 K mu / (3 K + mu) (-> 6 C10 as K -> inf)."""
+        mu, k = self.shear_modulus_mpa, self.bulk_modulus_mpa
+        return 9.0 * k * mu / (3.0 * k + mu)
+
+    @property
+    def weight_density_n_per_mm3(self) -> float:
+        """Weight per volume under standard gravity."""
+        return self.density_g_per_ml * G_STANDARD_N_PER_MM3_PER_G_PER_ML
+
+
+@dataclass(frozen=True)
+class Membrane:
+    """Linear-elastic (St.Venant-Kirchhoff) membrane; defaults: the paper sheet.
+
+    Parameters
+    ----------
+    modulus_mpa : Young's modulus (supplement: 6.5 GPa).
+    poisson : Poisson's ratio (supplement: 0.2).
+    thickness_mm : sheet thickness (0.1 mm).
+    """
+
+    modulus_mpa: float = 6500.0
+    poisson: float = 0.2
+    thickness_mm: float = 0.1
+
+    def __post_init__(self) -> None:
+        if not self.modulus_mpa > 0:
+            raise DesignError("modulus_mpa", f"must be > 0, got {self.modulus_mpa}")
+        if not -1.0 < self.poisson < 0.5:
+            raise DesignError("poisson", f"must be in (-1, 0.5), got {self.poisson}")
+        if not self.thickness_mm > 0:
+            raise DesignError("thickness_mm", f"must be > 0, got {self.thickness_mm}")
+
+    @property
+    def stiffness_n_per_mm(self) -> float:
+        """Stretching stiffness E * t."""
+        return self.modulus_mpa * self.thickness_mm

@@ -1,0 +1,295 @@
+"""Discretisation: P2 tetrahedra from a :class:`TetMesh`, DOF numbering, the sparsity
+pattern of the reduced (free-DOF, upper-triangular) system and the scatter maps, built once.
+
+scikit-fem supplies the mesh, the P2 element, the quadrature, the reference gradients and
+the DOF numbering (scalar P2 dof ``s`` -> vector dofs ``3 s + i``; vertex ``v`` is dof
+``v``, edge ``k`` is dof ``n_vertices + k``). The compiled kernels in :mod:`.kernels`
+evaluate the element quantities; this module gathers and scatters.
+
+Sign convention: facets are oriented with the outward normal of the SOLID, so the cavity
+facets' normals point into the air; the cavity volume is ``-(1/3) int x . n da`` over them.
+The total potential is ``Pi = W_elastomer + W_membrane - p V_cavity - f_g . u + W_contact``
+and the residual is its gradient, ``R = f_int - f_ext``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import Basis, ElementTetP2, ElementTriP2, LinearForm, MeshTet
+from skfem.quadrature import get_quadrature
+from skfem.refdom import RefTri
+
+from ..errors import MeshingError
+from ..tetmesh import CAVITY, FREE_END, STRAIN_LIMITING_LAYER, TetMesh
+from . import kernels
+from .material import Membrane, Yeoh
+
+log = logging.getLogger(__name__)
+
+_CHUNK = 4096
+_TRI_EDGES = ((0, 1), (1, 2), (0, 2))  # ElementTriP2 edge dofs 3, 4, 5
+
+
+@dataclass(frozen=True)
+class Load:
+    """One load state: pressure (MPa), gravity force density (N/mm^3), contact plane."""
+
+    pressure_mpa: float = 0.0
+    gravity_n_per_mm3: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    plane_z_mm: float | None = None
+    plane_stiffness_n_per_mm: float = 0.0
+
+
+@dataclass
+class Evaluation:
+    """Residual (full length), energy and optionally the reduced tangent at one state."""
+
+    residual: np.ndarray
+    energy: float
+    ok: bool
+    external_norm: float
+    cavity_volume_mm3: float
+    contact_force_n: float
+    matrix: sp.csr_matrix | None = None
+
+
+class Model:
+    """P2 discretisation of an elastomer body with membrane, pressure and supports.
+
+    Parameters
+    ----------
+    mesh : the linear-tet mesh with named facet sets.
+    material : the elastomer.
+    membrane : the strain-limiting sheet on ``strain_limiting_layer`` (None: no sheet).
+    fixed : facet-set name -> displacement components held at their prescribed values
+        (e.g. ``{"clamp": (0, 1, 2), "symmetry": (1,)}``).
+    contact_set : facet set whose nodes may touch the rigid plane of a :class:`Load`.
+    """
+
+    def __init__(self, mesh: TetMesh, material: Yeoh, membrane: Membrane | None,
+                 fixed: Mapping[str, Sequence[int]], contact_set: str = FREE_END):
+        self.mesh, self.material, self.membrane = mesh, material, membrane
+        tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
+        self.skmesh = MeshTet(np.asarray(mesh.nodes_mm, float).T.copy(), tets.T.copy())
+        self.basis = Basis(self.skmesh, ElementTetP2(), intorder=2)
+        b = self.basis
+        self.n_scalar = int(b.N)
+        self.ndof = 3 * self.n_scalar
+        self.X = np.ascontiguousarray(b.doflocs.T)
+        self.edofs = np.ascontiguousarray(b.element_dofs.T, dtype=np.int64)
+        grads = np.stack([b.basis[a][0].grad for a in range(10)])  # (10, 3, nel, nq)
+        self.dN = np.ascontiguousarray(grads.transpose(2, 3, 0, 1))
+        self.wq = np.ascontiguousarray(b.dx)
+        self._edge_keys, self._edge_order = self._edge_lookup()
+        self.facet_dofs = {name: self._facet_dofs(name, f) for name, f in mesh.facets.items()
+                           if len(f)}
+        self.fixed = np.zeros(self.ndof, bool)
+        used = np.zeros(self.n_scalar, bool)
+        used[self.edofs] = True
+        self.fixed[np.repeat(~used, 3)] = True
+        self.fixed_sets: dict[str, np.ndarray] = {}
+        for name, comps in fixed.items():
+            if name not in self.facet_dofs:
+                raise MeshingError(f"facet set {name!r} to hold is missing or empty")
+            nodes = np.unique(self.facet_dofs[name])
+            self.fixed_sets[name] = nodes
+            for c in comps:
+                self.fixed[3 * nodes + c] = True
+        self.free = np.flatnonzero(~self.fixed)
+        self.free_index = np.full(self.ndof, -1, dtype=np.int64)
+        self.free_index[self.free] = np.arange(self.free.size)
+        self._build_pattern()
+        self._build_membrane()
+        self._build_pressure()
+        scalar_load = LinearForm(lambda v, w: v).assemble(b)
+        self.volume_load = np.asarray(scalar_load)  # int N_s dV per scalar dof
+        cnodes = self.facet_dofs.get(contact_set)
+        self.contact_nodes = np.unique(cnodes) if cnodes is not None else np.zeros(0, int)
+        log.info("P2 model: %d tets, %d unknowns, %d nonzeros (upper)", self.edofs.shape[0],
+                 self.free.size, self.indices.size)
+
+    # -- numbering ----------------------------------------------------------------------
+    def _edge_lookup(self) -> tuple[np.ndarray, np.ndarray]:
+        e = np.sort(self.skmesh.edges, axis=0)
+        keys = e[0].astype(np.int64) * self.skmesh.nvertices + e[1]
+        order = np.argsort(keys)
+        return keys[order], order
+
+    def _edge_ids(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        lo, hi = np.minimum(i, j), np.maximum(i, j)
+        keys = lo.astype(np.int64) * self.skmesh.nvertices + hi
+        pos = np.clip(np.searchsorted(self._edge_keys, keys), 0, self._edge_keys.size - 1)
+        if np.any(self._edge_keys[pos] != keys):
+            raise MeshingError("a facet edge is not an edge of the tetrahedra")
+        return self._edge_order[pos]
+
+    def _facet_dofs(self, name: str, facets: np.ndarray) -> np.ndarray:
+        """(K, 6) scalar P2 dofs of a facet set, re-oriented outward of the solid."""
+        f = np.array(facets, dtype=np.int64, copy=True)
+        if f.max() >= self.skmesh.nvertices:
+            raise MeshingError(f"facet set {name!r} refers to a node not in the mesh")
+        sk = self.skmesh
+        skf = np.sort(sk.facets, axis=0).astype(np.int64)
+        n = sk.nvertices
+        skeys = (skf[0] * n + skf[1]) * n + skf[2]
+        order = np.argsort(skeys)
+        fs = np.sort(f, axis=1)
+        keys = (fs[:, 0] * n + fs[:, 1]) * n + fs[:, 2]
+        pos = np.clip(np.searchsorted(skeys[order], keys), 0, order.size - 1)
+        if np.any(skeys[order][pos] != keys):
+            raise MeshingError(f"facet set {name!r} has triangles that are not tet faces")
+        tet = sk.f2t[0, order[pos]]
+        p = self.X[:sk.nvertices]
+        normal = np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]])
+        opposite = p[sk.t[:, tet].T].mean(axis=1) - p[f].mean(axis=1)
+        flip = np.einsum("ij,ij->i", normal, opposite) > 0
+        if flip.any():
+            log.warning("facet set %r: %d of %d triangles re-oriented outward", name,
+                        int(flip.sum()), len(f))
+            f[flip] = f[flip][:, [0, 2, 1]]
+        edges = [n + self._edge_ids(f[:, i], f[:, j]) for i, j in _TRI_EDGES]
+        return np.ascontiguousarray(np.column_stack([f, *edges]))
+
+    # -- sparsity -----------------------------------------------------------------------
+    def _build_pattern(self) -> None:
+        nfree = self.free.size
+        keys = kernels.pair_keys(self.edofs, self.free_index, nfree)
+        valid = keys >= 0
+        uniq, inverse = np.unique(keys[valid], return_inverse=True)
+        self._keys = uniq
+        kmap = np.full(keys.shape, -1, dtype=np.int32)
+        kmap[valid] = inverse
+        self.kmap_solid = kmap
+        rows = uniq // nfree
+        self.indices = (uniq - rows * nfree).astype(np.int32)
+        self.indptr = np.zeros(nfree + 1, dtype=np.int32)
+        np.cumsum(np.bincount(rows, minlength=nfree), out=self.indptr[1:])
+        self.diag_pos = self.indptr[:-1].astype(np.int64)
+
+    def _map_facets(self, fdofs: np.ndarray) -> np.ndarray:
+        keys = kernels.pair_keys(fdofs, self.free_index, self.free.size)
+        pos = np.searchsorted(self._keys, keys)
+        out = np.where(keys >= 0, pos, -1).astype(np.int32)
+        return out
+
+    def _build_membrane(self) -> None:
+        fd = self.facet_dofs.get(STRAIN_LIMITING_LAYER)
+        if self.membrane is None or fd is None:
+            self.mem_dofs = None
+            return
+        pts, wts = get_quadrature(RefTri, 4)
+        el = ElementTriP2()
+        dref = np.stack([el.lbasis(pts, a)[1] for a in range(6)])  # (6, 2, nq)
+        Xe = self.X[fd]  # (K, 6, 3)
+        G = np.einsum("kai,adq->kqdi", Xe, dref)  # (K, nq, 2, 3) covariant base vectors
+        t1 = G[:, :, 0] / np.linalg.norm(G[:, :, 0], axis=-1, keepdims=True)
+        nrm = np.cross(G[:, :, 0], G[:, :, 1])
+        area = np.linalg.norm(nrm, axis=-1)
+        t2 = np.cross(nrm / area[..., None], t1)
+        M = np.stack([np.einsum("kqdi,kqi->kqd", G, t) for t in (t1, t2)], axis=-1)
+        dNs = np.einsum("adq,kqbd->kqab", dref, np.linalg.inv(M))
+        self.mem_dofs = fd
+        self.mem_dNs = np.ascontiguousarray(dNs)
+        self.mem_w = np.ascontiguousarray(area * wts)
+        self.kmap_mem = self._map_facets(fd)
+
+    def _build_pressure(self) -> None:
+        fd = self.facet_dofs.get(CAVITY)
+        if fd is None:
+            self.cav_dofs = None
+            return
+        pts, wts = get_quadrature(RefTri, 4)
+        el = ElementTriP2()
+        self.cav_N = np.ascontiguousarray(np.stack([el.lbasis(pts, a)[0] for a in range(6)]).T)
+        dref = np.stack([el.lbasis(pts, a)[1] for a in range(6)])  # (6, 2, nq)
+        self.cav_dN = np.ascontiguousarray(dref.transpose(2, 0, 1))
+        self.cav_w = np.ascontiguousarray(wts)
+        self.cav_dofs = fd
+        self.kmap_cav = self._map_facets(fd)
+
+    # -- evaluation ---------------------------------------------------------------------
+    def gravity_vector(self, gravity_n_per_mm3: Sequence[float]) -> np.ndarray:
+        """Consistent nodal forces of a uniform force density (full length)."""
+        return (self.volume_load[:, None] * np.asarray(gravity_n_per_mm3, float)).ravel()
+
+    def evaluate(self, u: np.ndarray, load: Load, want_k: bool = False) -> Evaluation:
+        """Residual, energy (and the reduced upper-triangular tangent) at ``u``."""
+        mat = self.material
+        u = np.ascontiguousarray(u, dtype=float)
+        R = np.zeros(self.ndof)
+        Rext = np.zeros(self.ndof)
+        data = np.zeros(self.indices.size) if want_k else None
+        energy, ok = 0.0, True
+        kappa = mat.bulk_modulus_mpa
+        mean_dil = mat.volumetric == "mean_dilatation"
+        nel = self.edofs.shape[0]
+        ntri = 465 if want_k else 1
+        for s in range(0, nel, _CHUNK):
+            sl = slice(s, min(s + _CHUNK, nel))
+            m = sl.stop - sl.start
+            W, Re, bad = np.empty(m), np.empty((m, 30)), np.zeros(m, np.int8)
+            Ke = np.empty((m, ntri))
+            kernels.solid(u, self.edofs[sl], self.dN[sl], self.wq[sl], mat.c10_mpa,
+                          mat.c20_mpa, mat.c30_mpa, kappa, mean_dil, want_k, W, Re, Ke, bad)
+            if bad.any():
+                ok = False
+                break
+            energy += W.sum()
+            kernels.scatter_vector(Re, self.edofs[sl], R)
+            if want_k:
+                kernels.scatter_matrix(Ke, self.kmap_solid[sl], data)
+        if not ok:
+            return Evaluation(R, np.inf, False, 0.0, np.nan, 0.0)
+        if self.mem_dofs is not None:
+            mb = self.membrane
+            dmod = mb.stiffness_n_per_mm / (1.0 - mb.poisson ** 2)
+            nf = self.mem_dofs.shape[0]
+            W, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
+            kernels.membrane(u, self.X, self.mem_dofs, self.mem_dNs, self.mem_w, dmod,
+                             mb.poisson, want_k, W, Re, Ke)
+            energy += W.sum()
+            kernels.scatter_vector(Re, self.mem_dofs, R)
+            if want_k:
+                kernels.scatter_matrix(Ke, self.kmap_mem, data)
+        volume = np.nan
+        if self.cav_dofs is not None:
+            nf = self.cav_dofs.shape[0]
+            V, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
+            p = load.pressure_mpa
+            kernels.pressure(u, self.X, self.cav_dofs, self.cav_N, self.cav_dN, self.cav_w,
+                             p, want_k and p != 0.0, V, Re, Ke)
+            volume = float(V.sum())
+            energy -= p * volume
+            if p != 0.0:
+                kernels.scatter_vector(Re, self.cav_dofs, Rext)
+                if want_k:
+                    kernels.scatter_matrix(Ke, self.kmap_cav, data)
+        if any(load.gravity_n_per_mm3):
+            fg = self.gravity_vector(load.gravity_n_per_mm3)
+            Rext -= fg
+            energy -= float(fg @ u)
+        force = 0.0
+        if load.plane_z_mm is not None and self.contact_nodes.size:
+            k = load.plane_stiffness_n_per_mm
+            zdofs = 3 * self.contact_nodes + 2
+            gap = self.X[self.contact_nodes, 2] + u[zdofs] - load.plane_z_mm
+            pen = np.minimum(gap, 0.0)
+            energy += 0.5 * k * float(pen @ pen)
+            np.add.at(Rext, zdofs, k * pen)
+            force = float(-k * pen.sum())
+            if want_k:
+                fi = self.free_index[zdofs]
+                sel = (pen < 0) & (fi >= 0)
+                np.add.at(data, self.diag_pos[fi[sel]], k)
+        R += Rext
+        ext = float(np.linalg.norm(Rext[self.free]))
+        mtx = None
+        if want_k:
+            n = self.free.size
+            mtx = sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
+        return Evaluation(R, energy, True, ext, volume, force, mtx)

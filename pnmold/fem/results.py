@@ -1,0 +1,172 @@
+"""What a solve reports: :class:`Step` per converged load, :class:`Solution` per curve.
+
+Observables follow CONTRACTS.md section 2: the tip is the mesh's ``tip_mm`` point followed
+by the displacement field (P2-interpolated inside its tetrahedron); the bend angle is the
+best-fit rotation about +y of the ``free_end`` face's nodes, positive when the actuator
+curls toward -z (the paper side), unwrapped along the curve so a full circle is 360.
+Forces and volumes of a half model are reported for the whole actuator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ..errors import MeshingError
+from ..tetmesh import CLAMP, FREE_END
+from .model import Evaluation, Model
+
+FULL_BEND_DEG = 360.0
+
+
+@dataclass(frozen=True)
+class Step:
+    """One converged load step (mm, degrees, mL, N; tip and stretch site in the frame)."""
+
+    pressure_kpa: float
+    tip_x_mm: float
+    tip_z_mm: float
+    bend_angle_deg: float
+    cavity_volume_ml: float
+    max_principal_stretch: float
+    max_stretch_at_mm: tuple[float, float, float]
+    clamp_reaction_n: tuple[float, float, float]
+    force_n: float | None = None
+
+    def as_dict(self) -> dict:
+        """Plain values for JSON (``report.json`` ``fem.steps``)."""
+        d = asdict(self)
+        d["max_stretch_at_mm"] = list(self.max_stretch_at_mm)
+        d["clamp_reaction_n"] = list(self.clamp_reaction_n)
+        if self.force_n is None:
+            del d["force_n"]
+        return d
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    """A pressure curve.
+
+    Attributes
+    ----------
+    steps : converged steps, the first at 0 kPa (after gravity, if any).
+    displacement_mm : (n_nodes, 3) displacement of the TetMesh nodes at the last step.
+    full_bend_pressure_kpa : pressure at which the bend angle reaches 360 degrees
+        (linearly interpolated between steps), or None; then ``reason`` says why.
+    stats : unknowns, increments, factorisations, timings (s).
+    shapes_mm : (n_nodes, 3) displacement at every step, for pictures of the bend.
+    """
+
+    steps: tuple[Step, ...]
+    displacement_mm: np.ndarray
+    full_bend_pressure_kpa: float | None
+    reason: str | None = None
+    stats: dict = field(default_factory=dict)
+    shapes_mm: tuple[np.ndarray, ...] = ()  # displacement of the mesh nodes at every step
+
+    @property
+    def max_pressure_kpa(self) -> float:
+        return self.steps[-1].pressure_kpa if self.steps else 0.0
+
+
+def full_bend_pressure(steps: tuple[Step, ...] | list[Step]) -> tuple[float | None, str | None]:
+    """Pressure where the bend angle first reaches 360 degrees, or (None, reason)."""
+    for prev, cur in zip(steps, steps[1:], strict=False):
+        if cur.bend_angle_deg >= FULL_BEND_DEG > prev.bend_angle_deg:
+            s = (FULL_BEND_DEG - prev.bend_angle_deg) / (cur.bend_angle_deg - prev.bend_angle_deg)
+            return prev.pressure_kpa + s * (cur.pressure_kpa - prev.pressure_kpa), None
+    if not steps:
+        return None, "no converged step"
+    last = steps[-1]
+    return None, (f"bend angle reached {last.bend_angle_deg:.1f} deg at "
+                  f"{last.pressure_kpa:.4g} kPa, the highest pressure solved")
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class Observer:
+    """Computes a :class:`Step` from a converged state; keeps the angle unwrapped."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.scale = 2.0 if model.mesh.half else 1.0
+        self._tip_dofs, self._tip_w = self._locate(np.asarray(model.mesh.tip_mm, float))
+        end = model.facet_dofs.get(FREE_END)
+        if end is None:
+            raise MeshingError(f"the mesh has no {FREE_END!r} facets for the bend angle")
+        self._end = np.unique(end)
+        self._end_ref = model.X[self._end][:, [0, 2]]
+        self._end_ref = self._end_ref - self._end_ref.mean(axis=0)
+        self._clamp = model.fixed_sets.get(CLAMP)
+        self._xq = np.asarray(model.basis.global_coordinates())  # (3, nel, nq)
+        self._angle = 0.0
+
+    def _locate(self, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """P2 dofs and shape values at ``point`` (reference frame)."""
+        m = self.model
+        sk = m.skmesh
+        p = sk.p.T[sk.t.T]  # (nel, 4, 3)
+        T = np.transpose(p[:, 1:] - p[:, :1], (0, 2, 1))
+        lam123 = np.linalg.solve(T, (point - p[:, 0])[:, :, None])[:, :, 0]
+        lam = np.column_stack([1.0 - lam123.sum(axis=1), lam123])
+        e = int(np.argmax(lam.min(axis=1)))
+        if lam[e].min() < -1e-6:
+            raise MeshingError(f"the tip {tuple(point)} lies outside the mesh")
+        lam = np.clip(lam[e], 0.0, 1.0)
+        lam /= lam.sum()
+        verts = sk.t[:, e]
+        pairs = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
+        ii = np.array([i for i, _ in pairs])
+        jj = np.array([j for _, j in pairs])
+        edges = sk.nvertices + m._edge_ids(verts[ii], verts[jj])
+        dofs = np.concatenate([verts, edges])
+        w = np.concatenate([lam * (2.0 * lam - 1.0), 4.0 * lam[ii] * lam[jj]])
+        return dofs, w
+
+    def displacement_at_tip(self, u: np.ndarray) -> np.ndarray:
+        return self._tip_w @ u.reshape(-1, 3)[self._tip_dofs]
+
+    def bend_angle(self, u: np.ndarray) -> float:
+        """Unwrapped rotation about +y of the free-end face, radians."""
+        cur = (self.model.X + u.reshape(-1, 3))[self._end][:, [0, 2]]
+        cur = cur - cur.mean(axis=0)
+        ref = self._end_ref
+        s = float(np.sum(cur[:, 0] * ref[:, 1] - cur[:, 1] * ref[:, 0]))
+        c = float(np.sum(cur[:, 0] * ref[:, 0] + cur[:, 1] * ref[:, 1]))
+        raw = math.atan2(s, c)
+        self._angle += _wrap(raw - self._angle)
+        return self._angle
+
+    def max_stretch(self, u: np.ndarray) -> tuple[float, tuple[float, float, float]]:
+        m = self.model
+        ue = u.reshape(-1, 3)[m.edofs]  # (nel, 10, 3)
+        F = np.einsum("eai,eqaj->eqij", ue, m.dN) + np.eye(3)
+        lam2 = np.linalg.eigvalsh(np.einsum("eqki,eqkj->eqij", F, F))[..., -1]
+        e, q = np.unravel_index(int(np.argmax(lam2)), lam2.shape)
+        where = tuple(float(v) for v in self._xq[:, e, q])
+        return float(np.sqrt(lam2[e, q])), where
+
+    def reaction(self, ev: Evaluation) -> tuple[float, float, float]:
+        if self._clamp is None:
+            return (0.0, 0.0, 0.0)
+        r = ev.residual.reshape(-1, 3)[self._clamp].sum(axis=0) * self.scale
+        if self.model.mesh.half:
+            r[1] = 0.0
+        return (float(r[0]), float(r[1]), float(r[2]))
+
+    def step(self, pressure_kpa: float, u: np.ndarray, ev: Evaluation,
+             force: bool = False) -> Step:
+        """Observables of the converged state ``u`` (``ev`` evaluated at ``u``)."""
+        tip = np.asarray(self.model.mesh.tip_mm, float) + self.displacement_at_tip(u)
+        stretch, where = self.max_stretch(u)
+        volume = ev.cavity_volume_mm3 * self.scale / 1000.0
+        return Step(pressure_kpa=float(pressure_kpa), tip_x_mm=float(tip[0]),
+                    tip_z_mm=float(tip[2]), bend_angle_deg=math.degrees(self.bend_angle(u)),
+                    cavity_volume_ml=float(volume) if np.isfinite(volume) else 0.0,
+                    max_principal_stretch=stretch, max_stretch_at_mm=where,
+                    clamp_reaction_n=self.reaction(ev),
+                    force_n=ev.contact_force_n * self.scale if force else None)
