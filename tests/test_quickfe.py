@@ -1,0 +1,123 @@
+"""The quick FE on the exported geometry: the build's FE stage, mesh convergence on the
+fPN, the trends of the supplement's Fig. S2, fPN against sPN, and `pnmold simulate`."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pnmold.cli import main
+from pnmold.design import load_design
+from pnmold.mesh import MeshSize
+from pnmold.pipeline import build
+from pnmold.quickfe import run_fe
+from pnmold.recording import read_recording
+
+COARSE = MeshSize(3.5, 7.0)  # trends only need the ordering, not the last percent
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    """template (or template + overrides) -> (design, actuator.step), CAD only."""
+    from pnmold.cad import export_parts, make_parts
+
+    cache = {}
+
+    def get(name: str, *overrides: str):
+        key = (name, overrides)
+        if key not in cache:
+            design = load_design(name, list(overrides))
+            folder = tmp_path_factory.mktemp("cad")
+            export_parts({"actuator": make_parts(design)["actuator"]}, folder)
+            cache[key] = (design, folder / "actuator.step")
+        return cache[key]
+
+    return get
+
+
+def _curve(exported, name, *overrides, size=COARSE, **kwargs):
+    design, step = exported(name, *overrides)
+    return run_fe(design, step, size=size, orientation="none", **kwargs).solution
+
+
+@pytest.mark.slow
+def test_build_records_the_quick_fe(tmp_path):
+    result = build(load_design("fig-s2c-w2"), tmp_path / "w2", use_slicer=False)
+    fem = result.report["fem"]
+    assert fem["full_bend_pressure_kpa"] is not None or fem["reason"]
+    steps = fem["steps"]
+    assert len(steps) >= 3 and steps[0]["pressure_kpa"] == 0.0
+    for key in ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml", "max_principal_stretch"):
+        assert all(isinstance(s[key], float) for s in steps), key
+    angles = [s["bend_angle_deg"] for s in steps]
+    assert angles[-1] > angles[1] > 0  # curls toward -z as pressure rises
+    assert steps[-1]["cavity_volume_ml"] > steps[0]["cavity_volume_ml"]
+    assert (result.out_dir / "bending.png").stat().st_size > 20_000
+    assert "Safety limit: the FE's largest principal stretch" in (result.out_dir / "checklist.md").read_text()
+
+
+@pytest.mark.slow
+def test_fpn_tip_converges_under_mesh_refinement(exported):
+    """Verification d: the tip at a reference pressure moves < 3% of its travel between the
+    build's mesh and a finer one."""
+    design, _ = exported("fpn")
+    tips = []
+    for size in (MeshSize(), MeshSize().refined(1.25)):
+        last = _curve(exported, "fpn", size=size, pressures_kpa=[15.0]).steps[-1]
+        tips.append(np.array([last.tip_x_mm, last.tip_z_mm]))
+    travel = np.linalg.norm(tips[1] - [design.length_mm, 0.0])
+    assert travel > 20  # a real bend, not a rounding error
+    assert np.linalg.norm(tips[0] - tips[1]) < 0.03 * travel
+
+
+def _angle_at(exported, name, *overrides, pressure_kpa: float = 8.0) -> float:
+    return _curve(exported, name, *overrides, pressures_kpa=[pressure_kpa]).steps[-1].bend_angle_deg
+
+
+@pytest.mark.slow
+def test_fig_s2_trends_come_out_of_the_solver(exported):
+    """Verification e (supplement Fig. S2 A-C): at the same pressure, taller chambers and
+    more chambers bend further, thicker inside walls less. The curves rise monotonically
+    (test_build_records_the_quick_fe), so this orders the full-bend pressures the same way:
+    taller and more chambers lower it, thicker walls raise it. (benchmarks/fem.py and the
+    Fig. S2 sweeps compute the full-bend pressures themselves.)"""
+    short = _angle_at(exported, "fig-s2b-n7")  # 7 chambers of 7 mm
+    assert _angle_at(exported, "fig-s2b-n7", "chambers.height_mm=10.5") > short
+    assert _angle_at(exported, "fig-s2b-n7", "chambers.count=11") > short
+    thick = _angle_at(exported, "fig-s2c-w2")  # 2 mm inside walls
+    assert _angle_at(exported, "fig-s2c-w2", "chambers.inside_wall_mm=1.0") > thick
+
+
+@pytest.mark.slow
+def test_fpn_bends_more_than_spn_for_less_volume(exported):
+    fpn = _curve(exported, "fpn", pressures_kpa=[10.0, 20.0])
+    spn = _curve(exported, "spn", pressures_kpa=[10.0, 20.0])
+    assert fpn.steps[-1].bend_angle_deg > spn.steps[-1].bend_angle_deg
+    # volume change needed for the sPN's final bend: interpolate the fPN's curve there
+    target = spn.steps[-1].bend_angle_deg
+    angle = [s.bend_angle_deg for s in fpn.steps]
+    dv_f = np.interp(target, angle, [s.cavity_volume_ml - fpn.steps[0].cavity_volume_ml for s in fpn.steps])
+    dv_s = spn.steps[-1].cavity_volume_ml - spn.steps[0].cavity_volume_ml
+    assert dv_f < dv_s
+
+
+@pytest.mark.slow
+def test_simulate_writes_json_and_a_recording(tmp_path):
+    js, rec = tmp_path / "sim.json", tmp_path / "sim.csv"
+    assert main(["simulate", "fig-s2c-w2", "--pressures", "0:6:3", "--kind", "pv", "--cycles", "2",
+                 "--effects", "gravity=0", "--json", str(js), "--recording", str(rec), "--quiet"]) == 0
+    doc = json.loads(js.read_text())
+    assert doc["schema"] == "pnmold.simulation/1" and doc["model"] == "fe"
+    assert [s["phase"] for s in doc["steps"]].count("deflate") == 2 * 2
+    recording = read_recording(rec)
+    assert recording.kind == "pv" and set(recording["cycle"]) == {1, 2}
+    assert recording["volume_ml"][0] == 0.0 and recording["volume_ml"].max() > 0
+
+
+def test_simulate_refuses_what_it_cannot_do(capsys):
+    assert main(["simulate", "fpn", "--model", "rom"]) == 2
+    assert main(["simulate", "fpn", "--pressures", "10:5:1"]) == 2
+    assert main(["simulate", "fpn", "--effects", "mullins=0.2"]) == 2
+    assert "mullins" in capsys.readouterr().err
