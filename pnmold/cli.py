@@ -112,7 +112,11 @@ def cmd_simulate(args) -> int:
     if args.json:
         write_json(args.json, doc)
     if args.recording:
-        meta = {"design": design.name, "orientation": doc["orientation"]}
+        meta = {"design": design.name, "orientation": args.orientation, "model": doc["model"]}
+        if args.effects:
+            meta["effects"] = args.effects.replace(" ", "")
+        if args.rate_kpa_per_s:
+            meta["rate_kpa_per_s"] = f"{args.rate_kpa_per_s:g}"
         write_recording(args.recording, args.kind, recording_columns(doc), meta)
     if not args.quiet:
         for s in doc["steps"]:

@@ -44,7 +44,8 @@ def _curve(exported, name, *overrides, size=COARSE, **kwargs):
 
 @pytest.mark.slow
 def test_build_records_the_quick_fe(tmp_path):
-    result = build(load_design("fig-s2c-w2"), tmp_path / "w2", use_slicer=False)
+    design = load_design("fig-s2c-w2", ["chambers.inside_wall_mm=1.0"])
+    result = build(design, tmp_path / "w2", use_slicer=False)
     fem = result.report["fem"]
     assert fem["full_bend_pressure_kpa"] is not None or fem["reason"]
     steps = fem["steps"]
@@ -65,14 +66,14 @@ def test_fpn_tip_converges_under_mesh_refinement(exported):
     design, _ = exported("fpn")
     tips = []
     for size in (MeshSize(), MeshSize().refined(1.25)):
-        last = _curve(exported, "fpn", size=size, pressures_kpa=[15.0]).steps[-1]
+        last = _curve(exported, "fpn", size=size, pressures_kpa=[6.0]).steps[-1]
         tips.append(np.array([last.tip_x_mm, last.tip_z_mm]))
     travel = np.linalg.norm(tips[1] - [design.length_mm, 0.0])
     assert travel > 20  # a real bend, not a rounding error
     assert np.linalg.norm(tips[0] - tips[1]) < 0.03 * travel
 
 
-def _angle_at(exported, name, *overrides, pressure_kpa: float = 8.0) -> float:
+def _angle_at(exported, name, *overrides, pressure_kpa: float = 5.0) -> float:
     return _curve(exported, name, *overrides, pressures_kpa=[pressure_kpa]).steps[-1].bend_angle_deg
 
 
@@ -92,8 +93,8 @@ def test_fig_s2_trends_come_out_of_the_solver(exported):
 
 @pytest.mark.slow
 def test_fpn_bends_more_than_spn_for_less_volume(exported):
-    fpn = _curve(exported, "fpn", pressures_kpa=[10.0, 20.0])
-    spn = _curve(exported, "spn", pressures_kpa=[10.0, 20.0])
+    fpn = _curve(exported, "fpn", pressures_kpa=[4.0, 8.0])
+    spn = _curve(exported, "spn", pressures_kpa=[4.0, 8.0])
     assert fpn.steps[-1].bend_angle_deg > spn.steps[-1].bend_angle_deg
     # volume change needed for the sPN's final bend: interpolate the fPN's curve there
     target = spn.steps[-1].bend_angle_deg
