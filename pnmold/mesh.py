@@ -43,15 +43,13 @@ class MeshSize:
     """Element sizes (mm) of the linear tets that carry quadratic (P2) fields.
 
     ``wall_mm`` applies within ``band_mm`` of the cavity (the thin walls), growing to
-    ``max_mm`` farther away (bottom layer, end wall). gmsh still puts at least one
-    element across each wall, quadratic in the FE. With gravity, the fPN's full-bend
-    pressure was 48.0 kPa at these defaults (35k unknowns, 100 s) and 47.5 kPa at 2.5/5 mm
-    (47k unknowns, 155 s); without gravity 45.2 kPa at 2.5/5 and 45.0 kPa at 2/4 mm
-    (benchmarks/fem.py prints the tip at a reference pressure on two meshes).
+    ``max_mm`` farther away (bottom layer, end wall). The defaults give about one
+    quadratic element across a 1 mm wall; the full-bend pressure of the fPN moved 0.5%
+    when refined to 2/4 mm (benchmarks/fem.py prints the tip at a reference pressure).
     """
 
-    wall_mm: float = 3.2
-    max_mm: float = 6.4
+    wall_mm: float = 2.5
+    max_mm: float = 5.0
     band_mm: float = 1.0
     half: bool = True
 

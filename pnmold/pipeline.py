@@ -107,11 +107,9 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
 
 def _quick_fe(design: Design, folder: Path) -> dict[str, Any]:
     """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
-    from pnmold.fem import SolveOptions
     from pnmold.quickfe import bending_figure, fem_report, run_fe
 
-    # larger bend increments than the default 40 degrees: the build's solve is a preview
-    run = run_fe(design, folder / "actuator.step", keep_partial=True, options=SolveOptions(max_angle_step_deg=70.0))
+    run = run_fe(design, folder / "actuator.step", keep_partial=True)
     bending_figure(design, run, folder / "bending.png")
     section = fem_report(run)
     section["timings_s"] = run.timings_s
