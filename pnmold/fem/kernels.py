@@ -152,6 +152,23 @@ def solid(u, edofs, dN, wq, c10, c20, c30, kappa, mean_dil, want_k, W, R, K, bad
                     t += 1
 
 
+@nb.njit(cache=_CACHE, inline="always")
+def _start_facet(u, X, fdofs, e, nd, want_k, R, K):
+    """Current positions of facet ``e``'s nodes; zero its residual (and stiffness) rows."""
+    nbf = fdofs.shape[1]
+    xe = np.empty((nbf, 3))
+    for a in range(nbf):
+        d = fdofs[e, a]
+        for i in range(3):
+            xe[a, i] = X[d, i] + u[3 * d + i]
+    for r in range(nd):
+        R[e, r] = 0.0
+    if want_k:
+        for r in range(K.shape[1]):
+            K[e, r] = 0.0
+    return xe
+
+
 @nb.njit(parallel=True, cache=_CACHE)
 def membrane(u, X, fdofs, dNs, wa, dmod, nu, want_k, W, R, K):
     """St.Venant-Kirchhoff membrane, plane stress; ``dmod`` = E t / (1 - nu^2)."""
@@ -159,16 +176,7 @@ def membrane(u, X, fdofs, dNs, wa, dmod, nu, want_k, W, R, K):
     nbf = fdofs.shape[1]
     nd = 3 * nbf
     for e in nb.prange(nf):
-        xe = np.empty((nbf, 3))
-        for a in range(nbf):
-            d = fdofs[e, a]
-            for i in range(3):
-                xe[a, i] = X[d, i] + u[3 * d + i]
-        for r in range(nd):
-            R[e, r] = 0.0
-        if want_k:
-            for r in range(K.shape[1]):
-                K[e, r] = 0.0
+        xe = _start_facet(u, X, fdofs, e, nd, want_k, R, K)
         energy = 0.0
         Fs = np.empty((3, 2))
         Bv = np.empty((nd, 3))
@@ -232,16 +240,7 @@ def pressure(u, X, fdofs, Nq, dNq, wr, p, want_k, V, R, K):
     nbf = fdofs.shape[1]
     nd = 3 * nbf
     for e in nb.prange(nf):
-        xe = np.empty((nbf, 3))
-        for a in range(nbf):
-            d = fdofs[e, a]
-            for i in range(3):
-                xe[a, i] = X[d, i] + u[3 * d + i]
-        for r in range(nd):
-            R[e, r] = 0.0
-        if want_k:
-            for r in range(K.shape[1]):
-                K[e, r] = 0.0
+        xe = _start_facet(u, X, fdofs, e, nd, want_k, R, K)
         vol = 0.0
         a1 = np.empty(3)
         a2 = np.empty(3)
