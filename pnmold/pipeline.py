@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pnmold
 from pnmold import report as rep
@@ -19,6 +19,9 @@ from pnmold.checklist import checklist_sections, render_markdown
 from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
 from pnmold.fsutil import staged_dir, write_json, write_text
+
+if TYPE_CHECKING:
+    from pnmold.mesh import MeshSize
 
 log = logging.getLogger(__name__)
 
@@ -59,8 +62,11 @@ def record_checks(report: dict[str, Any], checks: CheckReport) -> dict[str, Any]
 
 
 def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True,
-          use_slicer: bool = True, progress: Progress | None = None) -> BuildResult:
-    """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``)."""
+          use_slicer: bool = True, progress: Progress | None = None,
+          fem_size: MeshSize | None = None) -> BuildResult:
+    """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``).
+
+    ``fem_size`` overrides the quick FE's mesh size (default :class:`MeshSize`)."""
     from pnmold.cad import PART_NAMES, export_parts, make_parts
 
     say = progress or (lambda stage: None)
@@ -99,17 +105,17 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
         elif checks.failed:
             report["fem"]["reason"] = "skipped: a design-rule check failed"
         else:
-            report["fem"] = timed("fem", _quick_fe, design, tmp)
+            report["fem"] = timed("fem", _quick_fe, design, tmp, fem_size)
         write_json(tmp / "report.json", report)
         write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
     return BuildResult(design, final, report)
 
 
-def _quick_fe(design: Design, folder: Path) -> dict[str, Any]:
+def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
     """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
     from pnmold.quickfe import bending_figure, fem_report, run_fe
 
-    run = run_fe(design, folder / "actuator.step", keep_partial=True)
+    run = run_fe(design, folder / "actuator.step", size=size, keep_partial=True)
     bending_figure(design, run, folder / "bending.png")
     section = fem_report(run)
     section["timings_s"] = run.timings_s
