@@ -8,6 +8,7 @@ quick solve assumes the actuator lies chambers up (gravity along -z), as on a be
 
 from __future__ import annotations
 
+import io
 import logging
 import time
 from dataclasses import dataclass
@@ -19,6 +20,7 @@ import numpy as np
 from pnmold.design import Design
 from pnmold.errors import SolveError
 from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, solve_bending
+from pnmold.fsutil import write_bytes
 from pnmold.mesh import MeshQuality, MeshSize, mesh_actuator
 from pnmold.tetmesh import TetMesh
 
@@ -27,6 +29,12 @@ log = logging.getLogger(__name__)
 WATER_DENSITY_G_PER_ML = 0.998  # at 20 °C
 #: the build's quick solve stops here if the actuator has not closed into a circle (assumed)
 QUICK_MAX_PRESSURE_KPA = 150.0
+#: the build's preview mesh: coarser than the default MeshSize (2.5/5 mm). With gravity the
+#: fPN's full-bend pressure was 48.0 kPa here (35k unknowns) and 47.5 kPa at 2.5/5 mm
+#: (47k unknowns); benchmarks/fem.py prints the tip on this mesh and a finer one.
+BUILD_MESH = MeshSize(3.2, 6.4)
+#: the build's load stepping: bend increments of up to 70 degrees instead of 40 (a preview)
+BUILD_OPTIONS = SolveOptions(max_angle_step_deg=70.0)
 ORIENTATIONS = ("chambers_up", "chambers_down", "horizontal", "submerged", "none")
 
 
@@ -117,6 +125,41 @@ def fem_report(run: FeRun) -> dict[str, Any]:
         "solver": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in sol.stats.items()},
         "steps": steps,
     }
+
+
+def boundary_triangles(mesh: TetMesh) -> np.ndarray:
+    """(m, 3) node indices of the faces that belong to one tetrahedron only."""
+    faces = mesh.tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
+    key = np.sort(faces, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    return faces[counts[inverse.ravel()] == 1]
+
+
+def stretch_field(mesh: TetMesh, displacement_mm: np.ndarray) -> np.ndarray:
+    """Largest principal stretch per node: the largest over the tets around it, from the
+    vertex displacements (linear interpolation: for pictures, not for the report's figure,
+    which the P2 solution gives at its quadrature points)."""
+    x0 = mesh.nodes_mm[mesh.tets]
+    x1 = x0 + displacement_mm[mesh.tets]
+    d0 = np.transpose(x0[:, 1:] - x0[:, :1], (0, 2, 1))
+    d1 = np.transpose(x1[:, 1:] - x1[:, :1], (0, 2, 1))
+    F = d1 @ np.linalg.inv(d0)
+    lam = np.sqrt(np.linalg.eigvalsh(np.transpose(F, (0, 2, 1)) @ F)[:, -1])
+    out = np.zeros(mesh.n_nodes)
+    np.maximum.at(out, mesh.tets.ravel(), np.repeat(lam, 4))
+    return out
+
+
+def write_field(run: FeRun, path: str | Path) -> Path:
+    """``fem_field.npz``: the last converged shape and its stretch on the boundary, for the
+    report's strain picture (keys ``nodes_mm``, ``displacement_mm``, ``surface_tris``,
+    ``stretch``, ``pressure_kpa``, ``half``)."""
+    mesh, u = run.mesh, run.solution.displacement_mm
+    buf = io.BytesIO()
+    np.savez_compressed(buf, nodes_mm=mesh.nodes_mm, displacement_mm=u,
+                        surface_tris=boundary_triangles(mesh), stretch=stretch_field(mesh, u),
+                        pressure_kpa=run.solution.max_pressure_kpa, half=mesh.half)
+    return write_bytes(path, buf.getvalue())
 
 
 def deformed_outline(mesh: TetMesh, displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -393,3 +393,23 @@ def test_full_bend_pressure_is_interpolated_or_explained():
     keys = {"pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml",
             "max_principal_stretch"}
     assert keys <= set(steps[1].as_dict()) and "force_n" not in steps[1].as_dict()
+
+
+def test_stretch_field_and_boundary_of_a_homogeneous_stretch():
+    """The report's strain picture: a block stretched 1.3x along x shows 1.3 at every node,
+    and its boundary is the cube's surface, wound outward, without inner faces."""
+    from pnmold.quickfe import boundary_triangles, stretch_field
+
+    mesh = unit_block(n=2)
+    u = np.zeros_like(mesh.nodes_mm)
+    u[:, 0] = 0.3 * mesh.nodes_mm[:, 0]
+    u[:, 1] = -0.1 * mesh.nodes_mm[:, 1]
+    lam = stretch_field(mesh, u)
+    assert np.allclose(lam, 1.3, rtol=1e-12)
+    tris = boundary_triangles(mesh)
+    p = mesh.nodes_mm[tris]
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    assert area.sum() == pytest.approx(6.0)  # the unit cube's surface, no inner face
+    normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    outward = np.einsum("ij,ij->i", normals, p.mean(axis=1) - 0.5)
+    assert np.all(outward > 0)  # wound with the outward normal

@@ -12,7 +12,7 @@ from pnmold.cli import main
 from pnmold.design import load_design
 from pnmold.mesh import MeshSize
 from pnmold.pipeline import build
-from pnmold.quickfe import run_fe
+from pnmold.quickfe import BUILD_MESH, run_fe
 from pnmold.recording import read_recording
 
 COARSE = MeshSize(3.5, 7.0)  # trends only need the ordering, not the last percent
@@ -56,6 +56,10 @@ def test_build_records_the_quick_fe(tmp_path):
     assert angles[-1] > angles[1] > 0  # curls toward -z as pressure rises
     assert steps[-1]["cavity_volume_ml"] > steps[0]["cavity_volume_ml"]
     assert (result.out_dir / "bending.png").stat().st_size > 20_000
+    field = np.load(result.out_dir / "fem_field.npz")
+    assert field["displacement_mm"].shape == field["nodes_mm"].shape
+    assert field["surface_tris"].max() < len(field["nodes_mm"])
+    assert 1.0 < field["stretch"].max() < 1.5 * max(s["max_principal_stretch"] for s in steps)
     assert "Safety limit: the FE's largest principal stretch" in (result.out_dir / "checklist.md").read_text()
 
 
@@ -65,7 +69,7 @@ def test_fpn_tip_converges_under_mesh_refinement(exported):
     build's mesh and a finer one."""
     design, _ = exported("fpn")
     tips = []
-    for size in (MeshSize(), MeshSize().refined(1.25)):
+    for size in (BUILD_MESH, BUILD_MESH.refined(1.6)):
         last = _curve(exported, "fpn", size=size, pressures_kpa=[6.0]).steps[-1]
         tips.append(np.array([last.tip_x_mm, last.tip_z_mm]))
     travel = np.linalg.norm(tips[1] - [design.length_mm, 0.0])

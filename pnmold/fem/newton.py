@@ -145,7 +145,7 @@ class Newton:
         ``tangent_load`` (the load of the converged state ``u0``) gives the first
         iteration the equilibrium tangent. Gives up early when the first correction
         exceeds ``max_correction`` x the body's size (``oversize`` says by how much) or
-        when the residual is above its starting value after ``diverge_after`` iterations.
+        when the residual has not fallen over two iterations after ``diverge_after``.
         """
         m, opt = self.model, self.options
         u = u0.copy()
@@ -161,8 +161,11 @@ class Newton:
                 log.debug("converged: residuals %s", " ".join(f"{h:.1e}" for h in history))
                 self.stats.newton_iterations.append(it)
                 return NewtonResult(True, u, ev, history)
+            # diverging: no progress over the last two iterations. Not "above the starting
+            # residual": after a tiny increment that one is tiny, the first correction's
+            # spurious rotation spike is not, and a converging solve would be cut forever.
             if (it == opt.max_iterations or not np.isfinite(rn) or rn > 1e8 * history[0]
-                    or (it >= opt.diverge_after and rn > history[0])):
+                    or (it >= opt.diverge_after and rn > history[-3])):
                 break
             if it >= 2 and opt.reuse_below > 0 and rn < opt.reuse_below * history[-2]:
                 d = self._reuse(r)  # converging fast: the last factorisation still serves
@@ -255,6 +258,10 @@ def continuation(newton: Newton, u: np.ndarray, load_at: Callable[[float], Load]
         else:
             res = newton.solve(u, load_at(t_new), tangent_load=load_at(t))
         if not res.converged:
+            if t_new - t < 1e-3 * first:
+                raise SolveError(
+                    f"{what} increment to {t_new:.4g} {unit} stalled below {1e-3 * first:.3g} {unit}; "
+                    f"last converged {what} {t:.4g} {unit}", last_converged=t, residuals=res.residuals)
             cuts += 1
             stats.cuts += 1
             log.info("%s %.4g %s: Newton failed (residuals %s); cutting the step", what,

@@ -1,0 +1,223 @@
+"""Rank, fit, accept: which catalogued effect (if any) explains what recalibration could not.
+
+1. The baseline (nominal model, modulus recalibrated) is fitted and judged on held-out
+   blocks. If its held-out misfit is within what the noise allows, nothing is missing.
+2. Every effect that shows in the recorded kinds is fitted jointly with the calibration
+   (so it is judged only by what recalibration could not absorb) and judged on the same
+   held-out blocks.
+3. The best is accepted only if all hold: its held-out chi-square gain over the baseline
+   is far beyond chance (``DCHI2_MIN``: one fitted parameter gains ~1 on held-out data by
+   chance) and removes most of the excess misfit; its parameter is plausible (inside the
+   bounds, not pinned at the upper one, and clearly above zero); it wins again on most
+   bootstrap resamples of the blocks.
+4. With one accepted, a second effect is tried on top the same way (pairs).
+5. If structure is left that no effect removes, the diagnosis says "unexplained".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .fitting import CALIBRATION, Fit, Fitter, Hypothesis, Parameter
+
+#: held-out chi-square gain needed to accept an effect (a 1-dof chi-square difference of 50
+#: is a 7-sigma event by chance)
+DCHI2_MIN = 50.0
+#: share of the baseline's excess held-out misfit an effect must remove
+EXCESS_SHARE = 0.5
+#: excess held-out misfit (chi2 - n) / sqrt(2 n) above which the data are not explained
+EXCESS_SIGMA = 6.0
+#: share of bootstrap resamples the accepted effect must win
+STABILITY = 0.7
+BOOTSTRAP = 12
+STARTS = (0.03, 0.15, 0.4, 0.8)  # multi-start points of an effect's parameter, as a share of its range
+
+
+@dataclass
+class Candidate:
+    """One hypothesis judged on the data: full fit and held-out z-scores."""
+
+    fit: Fit
+    heldout_z: np.ndarray
+    fold_x: list[np.ndarray]
+    gain: float = 0.0  # held-out chi-square gain over the reference
+    t_gain: float = 0.0  # paired t of that gain over blocks (evidence, not a gate: effects are local)
+    excess_share: float = 0.0
+    plausible: bool = True
+    stability: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def label(self) -> str:
+        return self.fit.hypothesis.label
+
+    @property
+    def heldout_chi2(self) -> float:
+        return float(np.sum(self.heldout_z ** 2))
+
+    def uncertainty(self) -> dict[str, float]:
+        """Spread (standard deviation) of each parameter over the held-out folds."""
+        xs = np.array(self.fold_x)
+        return {p.key: float(np.std(xs[:, i], ddof=1)) if len(xs) > 1 else float("nan")
+                for i, p in enumerate(self.fit.hypothesis.parameters)}
+
+
+def excess_sigma(chi2: float, n: int) -> float:
+    return (chi2 - n) / np.sqrt(2.0 * max(n, 1))
+
+
+def calibration_parameters() -> tuple[Parameter, ...]:
+    return tuple(Parameter(k, s, lo, hi, calibration=True) for k, s, lo, hi in CALIBRATION)
+
+
+def effect_parameters(effect) -> tuple[Parameter, ...]:
+    """The fitted parameters of a catalogue effect: its main one and its extras."""
+    lo, hi = effect.bounds
+    params = [Parameter(effect.name, lo + 0.1 * (hi - lo), lo, hi)]
+    for extra in effect.extra:
+        key, _unit, default, (elo, ehi) = extra[0], extra[1], extra[2], extra[3]
+        params.append(Parameter(f"{effect.name}.{key}", float(default), float(elo), float(ehi)))
+    return tuple(params)
+
+
+def hypothesis(effects: list) -> Hypothesis:
+    params = list(calibration_parameters())
+    for e in effects:
+        params.extend(effect_parameters(e))
+    return Hypothesis(tuple(e.name for e in effects), tuple(params))
+
+
+def judge(fitter: Fitter, h: Hypothesis, starts: list[np.ndarray]) -> Candidate:
+    full = fitter.fit(h, starts=starts)
+    z, xs = fitter.heldout(h, full.x)
+    full.predictions = fitter.predict(h, full.x)
+    return Candidate(full, z, xs)
+
+
+def starts_for(h: Hypothesis, base: np.ndarray | None = None) -> list[np.ndarray]:
+    """Multi-start points: the calibration (and any effect already fitted) from ``base``,
+    the newest effect's main parameter spread over its range."""
+    x0 = np.array([p.start for p in h.parameters])
+    if base is not None:
+        x0[:base.size] = base
+    newest = next((i for i in range(len(h.parameters) - 1, -1, -1)
+                   if not h.parameters[i].calibration and "." not in h.parameters[i].key), None)
+    if newest is None:
+        return [x0]
+    out = []
+    p = h.parameters[newest]
+    for share in STARTS:
+        x = x0.copy()
+        x[newest] = p.low + share * (p.high - p.low)
+        out.append(x)
+    return out
+
+
+def compare(cand: Candidate, ref: Candidate, blocks: np.ndarray) -> None:
+    """Held-out gain of ``cand`` over ``ref``, block by block, and the share of excess removed."""
+    gain = ref.heldout_z ** 2 - cand.heldout_z ** 2
+    ids = np.unique(blocks)
+    per_block = np.array([gain[blocks == b].sum() for b in ids])
+    cand.gain = float(gain.sum())
+    sd = float(np.std(per_block, ddof=1)) if per_block.size > 1 else float("inf")
+    cand.t_gain = float(per_block.mean() / (sd / np.sqrt(per_block.size))) if sd > 0 else (
+        float("inf") if per_block.mean() > 0 else 0.0)
+    excess = ref.heldout_chi2 - ref.heldout_z.size
+    cand.excess_share = float(gain.sum() / excess) if excess > 0 else 0.0
+
+
+def check_plausible(cand: Candidate, effect_names: tuple[str, ...]) -> None:
+    """Main parameters inside the bounds, off the upper bound, and clearly above zero."""
+    unc = cand.uncertainty()
+    for p, v in zip(cand.fit.hypothesis.parameters, cand.fit.x, strict=True):
+        if p.calibration or p.key not in effect_names:
+            continue
+        span = p.high - p.low
+        if v >= p.high - 0.01 * span:
+            cand.plausible = False
+            cand.notes.append(f"{p.key} pinned at its upper bound {p.high:g}")
+        elif v - p.low < 2.0 * max(unc[p.key], 0.005 * span):
+            cand.plausible = False
+            cand.notes.append(f"{p.key} = {v:.3g} not clearly above {p.low:g} (fold spread {unc[p.key]:.2g})")
+
+
+def bootstrap_stability(fitter: Fitter, cands: list[Candidate], rng: np.random.Generator) -> None:
+    """Share of block resamples on which each candidate has the lowest misfit."""
+    blocks = fitter.data.blocks
+    ids = np.unique(blocks)
+    wins = np.zeros(len(cands))
+    for _ in range(BOOTSTRAP):
+        counts = np.bincount(rng.choice(ids.size, ids.size), minlength=ids.size)
+        weight = counts[np.searchsorted(ids, blocks)].astype(float)
+        chi2 = [fitter.fit(c.fit.hypothesis, weight, [c.fit.x], max_nfev=20).chi2 for c in cands]
+        wins[int(np.argmin(chi2))] += 1
+    for c, w in zip(cands, wins, strict=True):
+        c.stability = float(w / BOOTSTRAP)
+
+
+@dataclass
+class Decision:
+    baseline: Candidate
+    ranked: list[Candidate]  # single-effect candidates, best held-out first
+    accepted: list[Candidate]  # the final model's effects in order (empty: nothing missing)
+    final: Candidate
+    unexplained: bool
+
+
+def decide(fitter: Fitter, effects: list, seed: int = 0) -> Decision:
+    """The full search over ``effects`` (catalogue entries)."""
+    rng = np.random.default_rng(seed)
+    blocks = fitter.data.blocks
+    base = judge(fitter, hypothesis([]), [np.array([p.start for p in calibration_parameters()])])
+    singles = [judge(fitter, h, starts_for(h, base.fit.x)) for h in (hypothesis([e]) for e in effects)]
+    for c in singles:
+        compare(c, base, blocks)
+        check_plausible(c, c.fit.hypothesis.effects)
+    ranked = sorted(singles, key=lambda c: c.heldout_chi2)
+    accepted: list[Candidate] = []
+    final = base
+    if excess_sigma(base.heldout_chi2, base.heldout_z.size) > EXCESS_SIGMA and ranked:
+        top = [c for c in ranked[:3]]
+        bootstrap_stability(fitter, [base] + top, rng)
+        best = ranked[0]
+        if _acceptable(best):
+            accepted.append(best)
+            final = best
+            final = _try_pairs(fitter, best, effects, blocks) or final
+            if final is not best:
+                accepted.append(final)
+    unexplained = excess_sigma(final.heldout_chi2, final.heldout_z.size) > EXCESS_SIGMA and (
+        final.heldout_chi2 > 1.5 * final.heldout_z.size)
+    return Decision(base, ranked, accepted, final, unexplained)
+
+
+def _acceptable(c: Candidate) -> bool:
+    ok = c.gain > DCHI2_MIN and c.excess_share > EXCESS_SHARE and c.plausible and c.stability >= STABILITY
+    if not ok:
+        c.notes.append(f"not accepted: held-out chi-square gain {c.gain:.0f} (needs > {DCHI2_MIN:.0f}), removes "
+                       f"{100 * c.excess_share:.0f}% of the excess misfit (needs > {100 * EXCESS_SHARE:.0f}%), "
+                       f"wins {100 * c.stability:.0f}% of resamples (needs {100 * STABILITY:.0f}%)"
+                       + ("" if c.plausible else ", implausible parameter"))
+    return ok
+
+
+def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarray) -> Candidate | None:
+    """A second effect on top of ``first``, accepted by the same rules against ``first``."""
+    if excess_sigma(first.heldout_chi2, first.heldout_z.size) <= EXCESS_SIGMA:
+        return None
+    named = first.fit.hypothesis.effects
+    best = None
+    for e in effects:
+        if e.name in named:
+            continue
+        h = hypothesis([*[x for x in effects if x.name in named], e])
+        c = judge(fitter, h, starts_for(h, first.fit.x))
+        compare(c, first, blocks)
+        check_plausible(c, h.effects)
+        if best is None or c.heldout_chi2 < best.heldout_chi2:
+            best = c
+    if best is not None and best.gain > DCHI2_MIN and best.excess_share > EXCESS_SHARE and best.plausible:
+        return best
+    return None

@@ -1,0 +1,56 @@
+"""Plain words: what was left out, what in the data shows it, and how much the fit improved."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: the experiment that separates an effect from the ones it is confused with (DIAGNOSE.md)
+SEPARATING_EXPERIMENT = {
+    "gravity": "repeat the ramp with the actuator flipped (chambers down) or submerged in water",
+    "strain_stiffening": "ramp to a higher pressure, or fit the rubber to a tensile test to large strain",
+    "self_contact": "record the blocked force, or photograph the chamber walls near full bend",
+    "layer_compliance": "measure the bottom face's length at full bend (tip x beyond the arc length)",
+    "mullins": "cycle the actuator three times: the first loading differs, later ones repeat",
+    "viscoelasticity": "repeat the cycle at a tenfold slower or faster ramp rate",
+    "dead_volume": "record a pressure-volume curve with the tubing shortened",
+    "flow_restriction": "repeat the step with a shorter or wider supply tube",
+}
+
+
+def effect_values(cand, effect) -> tuple[dict[str, float], dict[str, float]]:
+    """The fitted parameters of ``effect`` in ``cand`` and their fold spread."""
+    unc = cand.uncertainty()
+    values, spread = {}, {}
+    for key, v in cand.fit.values.items():
+        if key == effect.name or key.startswith(effect.name + "."):
+            values[key] = round(float(v), 6)
+            spread[key] = round(float(unc[key]), 6)
+    return values, spread
+
+
+def explanation(effect, values: dict[str, float], spread: dict[str, float], mismatch: list[dict],
+                rmse_before: float, rmse_after: float, unit: str) -> str:
+    main = values[effect.name]
+    where = mismatch[0]["description"] if mismatch else "a small, spread-out misfit"
+    return (f"The model left out {effect.description[0].lower() + effect.description[1:].rstrip('.')} "
+            f"({effect.name}). What shows it: {where}; this is its fingerprint: "
+            f"{effect.fingerprint[0].lower() + effect.fingerprint[1:].rstrip('.')}. "
+            f"With {effect.name} = {main:.3g} {effect.unit} (+- {spread[effect.name]:.2g}), the held-out "
+            f"error fell from {rmse_before:.3g} to {rmse_after:.3g} {unit}.")
+
+
+def nothing_missing(rmse: float, unit: str, excess: float) -> str:
+    return (f"Nothing significant is missing: after recalibrating the modulus, the model's held-out "
+            f"error ({rmse:.3g} {unit}) is what the noise in the recordings allows "
+            f"(excess misfit {excess:.1f} standard deviations).")
+
+
+def unexplained(rmse: float, unit: str, excess: float, tried: list[str]) -> str:
+    return (f"Structure remains that no catalogued effect explains: the held-out error is {rmse:.3g} "
+            f"{unit}, {excess:.1f} standard deviations beyond the noise after trying "
+            f"{', '.join(tried)}. Look for a cause outside the catalogue (a leak, a torn wall, "
+            f"a mislabelled column).")
+
+
+def rmse(values: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(values ** 2))) if values.size else float("nan")

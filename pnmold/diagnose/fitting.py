@@ -1,0 +1,133 @@
+"""Least-squares fits of a model to a :class:`DataSet`, whole or with blocks held out.
+
+A *hypothesis* is the nominal model plus zero or more effects; its free parameters are
+the calibration (``modulus_scale``) and each effect's parameters, all bounded. Fits use
+scipy's trust-region reflective least squares on the pooled z-scores
+``(measured - predicted) / noise``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .data import DataSet
+
+#: forward(effects, calibration) -> one prediction (columns by name) per recording;
+#: ``effects`` holds ``name`` -> value and ``name.param`` -> value (CONTRACTS.md §5)
+Forward = Callable[[dict[str, float], dict[str, float]], list[dict[str, np.ndarray]]]
+
+#: the nominal parameters recalibrated before any physics is blamed: a plain stiffness
+#: error (another batch of rubber, a thinner wall) scales the modulus (bounds assumed:
+#: +-40% covers batch-to-batch and cure variation of platinum silicones)
+CALIBRATION = (("modulus_scale", 1.0, 0.6, 1.6),)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    key: str  # "modulus_scale", "gravity", "viscoelasticity.tau_s"
+    start: float
+    low: float
+    high: float
+    calibration: bool = False
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """The nominal model plus ``effects`` (names), with the parameters to fit."""
+
+    effects: tuple[str, ...]
+    parameters: tuple[Parameter, ...]
+
+    @property
+    def label(self) -> str:
+        return " + ".join(self.effects) or "baseline"
+
+
+@dataclass
+class Fit:
+    hypothesis: Hypothesis
+    x: np.ndarray
+    chi2: float  # sum of squared z-scores on the rows fitted
+    n: int
+    predictions: list[dict[str, np.ndarray]] = field(default_factory=list)
+
+    @property
+    def values(self) -> dict[str, float]:
+        return {p.key: float(v) for p, v in zip(self.hypothesis.parameters, self.x, strict=True)}
+
+    def split(self) -> tuple[dict[str, float], dict[str, float]]:
+        """(effects, calibration) dictionaries for the forward model."""
+        return split_values(self.hypothesis, self.x)
+
+
+def split_values(h: Hypothesis, x: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
+    effects, calib = {}, {}
+    for p, v in zip(h.parameters, x, strict=True):
+        (calib if p.calibration else effects)[p.key] = float(v)
+    return effects, calib
+
+
+def zscores(data: DataSet, predictions: list[dict[str, np.ndarray]]) -> np.ndarray:
+    """(measured - predicted) / noise for every row of every series, concatenated."""
+    out = []
+    for s in data.series:
+        f = np.asarray(predictions[s.recording][s.observable], float)
+        out.append((s.y - f) / s.sigma)
+    return np.concatenate(out)
+
+
+class Fitter:
+    """Fits hypotheses to ``data`` through ``forward``; counts model evaluations."""
+
+    def __init__(self, data: DataSet, forward: Forward):
+        self.data = data
+        self.forward = forward
+        self.evaluations = 0
+
+    def predict(self, h: Hypothesis, x: np.ndarray) -> list[dict[str, np.ndarray]]:
+        self.evaluations += 1
+        effects, calib = split_values(h, x)
+        return self.forward(effects, calib)
+
+    def z(self, h: Hypothesis, x: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
+        """z-scores of every row; with ``weight`` (rows' multiplicities, e.g. 0 for held-out
+        rows, bootstrap counts) the rows with weight > 0, scaled by sqrt(weight)."""
+        z = zscores(self.data, self.predict(h, x))
+        z = np.where(np.isfinite(z), z, 1e6)  # a failed prediction is a very bad fit
+        if weight is None:
+            return z
+        keep = weight > 0
+        return z[keep] * np.sqrt(weight[keep])
+
+    def fit(self, h: Hypothesis, weight: np.ndarray | None = None, starts: list[np.ndarray] | None = None,
+            max_nfev: int = 60) -> Fit:
+        """Best parameters of ``h`` on the rows weighted by ``weight`` (all rows when None)."""
+        lo = np.array([p.low for p in h.parameters])
+        hi = np.array([p.high for p in h.parameters])
+        starts = starts or [np.array([p.start for p in h.parameters])]
+        best = None
+        for x0 in starts:
+            x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+            res = least_squares(lambda x: self.z(h, x, weight), x0, bounds=(lo, hi), x_scale=hi - lo,
+                                diff_step=1e-4, max_nfev=max_nfev)
+            chi2 = float(np.sum(res.fun ** 2))
+            if best is None or chi2 < best.chi2:
+                best = Fit(h, res.x, chi2, int(res.fun.size))
+        return best
+
+    def heldout(self, h: Hypothesis, start: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """z-scores of every row predicted by a fit that did not see its fold; and the
+        per-fold fitted parameters."""
+        folds = self.data.folds
+        z = np.empty(folds.size)
+        xs = []
+        for k in np.unique(folds):
+            train = folds != k
+            fit = self.fit(h, train.astype(float), [start], max_nfev=30)
+            xs.append(fit.x)
+            z[~train] = self.z(h, fit.x)[~train]
+        return z, xs

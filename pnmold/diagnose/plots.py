@@ -1,0 +1,68 @@
+"""Before/after figures of a diagnosis: data, baseline, improved model, residuals, window."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .core import Diagnosis, by_series
+from .fitting import zscores
+
+
+def _x(rec) -> tuple[np.ndarray, str]:
+    if rec.kind == "step":
+        return np.asarray(rec.columns["time_s"], float), "time (s)"
+    return np.asarray(rec.columns["pressure_kpa"], float), "pressure (kPa)"
+
+
+def fit_figure(diag: Diagnosis, path: str | Path) -> Path:
+    """One column per series: data, baseline and final model on top, residuals below."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    data, dec = diag.data, diag.decision
+    base = dec.baseline.fit.predictions
+    final = dec.final.fit.predictions
+    zb = by_series(data, zscores(data, base))
+    zf = by_series(data, zscores(data, final))
+    n = len(data.series)
+    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 6.2), squeeze=False, sharex="col",
+                             gridspec_kw={"height_ratios": [2, 1]})
+    label = dec.final.label
+    for j, s in enumerate(data.series):
+        rec = data.recordings[s.recording]
+        x, xlabel = _x(rec)
+        top, bottom = axes[0, j], axes[1, j]
+        top.plot(x, s.y, ".", ms=3, color="0.3", label="recording")
+        top.plot(x, base[s.recording][s.observable], "--", color="tab:red", lw=1.2, label="baseline (calibrated)")
+        if dec.accepted:
+            top.plot(x, final[s.recording][s.observable], "-", color="tab:blue", lw=1.2, label=f"with {label}")
+        top.set_title(f"{Path(rec.path).name}: {s.observable}", fontsize=9)
+        top.set_ylabel(s.observable)
+        bottom.plot(x, zb[j] * s.sigma, ".", ms=3, color="tab:red", label="baseline")
+        if dec.accepted:
+            bottom.plot(x, zf[j] * s.sigma, ".", ms=3, color="tab:blue", label="improved")
+        bottom.axhline(0, color="0.5", lw=0.8)
+        bottom.fill_between([x.min(), x.max()], -2 * s.sigma, 2 * s.sigma, color="0.85", label="2 x noise")
+        for m in diag.doc["mismatch"]:
+            if m["observable"] == s.observable:
+                a, b = next(iter(m["window"].values()))
+                for ax in (top, bottom):
+                    ax.axvspan(a, b, color="gold", alpha=0.25)
+        bottom.set_xlabel(xlabel)
+        bottom.set_ylabel("residual")
+        if j == 0:
+            top.legend(fontsize=7)
+            bottom.legend(fontsize=7)
+    fig.suptitle(diag.doc["summary"][:160] + ("..." if len(diag.doc["summary"]) > 160 else ""), fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+    return path

@@ -1,0 +1,87 @@
+"""The diagnosis machinery on a toy model with known answers: calibrate first, do not blame
+a plain stiffness error on physics, say nothing on clean data, name a concealed term."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from pnmold.diagnose import diagnose
+from pnmold.diagnose.data import noise_sigma
+from pnmold.recording import Recording
+
+
+@dataclass(frozen=True)
+class ToyEffect:
+    name: str
+    parameter: str
+    unit: str
+    bounds: tuple[float, float]
+    kinds: tuple[str, ...] = ("bending",)
+    extra: tuple = ()
+    description: str = "A toy term."
+    fingerprint: str = "Toy fingerprint."
+
+
+EFFECTS = [ToyEffect("sag", "g", "1", (0.0, 3.0)), ToyEffect("stiffening", "k", "1/kPa^2", (0.0, 4e-4)),
+           ToyEffect("creep", "c", "mm", (0.0, 5.0))]
+P = np.concatenate([np.linspace(0, 40, 41), np.linspace(40, 0, 41)])
+PHASE = np.array(["inflate"] * 41 + ["deflate"] * 41)
+
+
+def toy(effects: dict, calib: dict, p=P, phase=PHASE) -> dict[str, np.ndarray]:
+    s = calib.get("modulus_scale", 1.0)
+    bend = 0.02 * p / s * (1.0 - effects.get("stiffening", 0.0) * p ** 2)
+    bend = bend + np.where(phase == "deflate", 0.01 * effects.get("creep", 0.0), 0.0)
+    sag = effects.get("sag", 0.0) * 4.0 / (1.0 + bend * 5)
+    return {"tip_x_mm": 100.0 * np.cos(bend) - 2.0 * p / 40, "tip_z_mm": -100.0 * np.sin(bend) - sag}
+
+
+def recording(effects: dict, scale: float, noise_mm: float, seed: int) -> Recording:
+    rng = np.random.default_rng(seed)
+    cols = toy(effects, {"modulus_scale": scale})
+    cols = {k: v + rng.normal(0, noise_mm, v.size) for k, v in cols.items()}
+    return Recording("toy.csv", "bending", {"pressure_kpa": P, "phase": PHASE, **cols},
+                     {"orientation": "chambers_up"})
+
+
+def forward(effects, calib):
+    return [toy(effects, calib)]
+
+
+def run(rec):
+    return diagnose({"name": "toy", "digest": "0"}, [rec], forward, EFFECTS, seed=1)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_nothing_is_claimed_on_clean_data_with_a_stiffness_error(seed):
+    diag = run(recording({}, scale=1.15, noise_mm=0.2, seed=seed))
+    assert diag.named == [] and not diag.doc["unexplained"]
+    assert diag.doc["baseline"]["calibrated"]["modulus_scale"] == pytest.approx(1.15, rel=0.02)
+
+
+@pytest.mark.parametrize("effect,value", [("sag", 1.0), ("stiffening", 2e-4), ("creep", 2.0)])
+def test_a_concealed_term_is_named_with_its_value(effect, value):
+    diag = run(recording({effect: value}, scale=0.9, noise_mm=0.2, seed=7))
+    assert diag.named == [effect]
+    found = diag.doc["missing_physics"][0]["parameters"][effect]
+    assert found == pytest.approx(value, rel=0.2)
+    fit = diag.doc["fit"]
+    assert fit["heldout_rmse_after"] * 3 < fit["heldout_rmse_before"]
+    assert diag.doc["mismatch"] and diag.doc["mismatch"][0]["significance"] > 4
+
+
+def test_structure_no_term_explains_is_called_unexplained():
+    rec = recording({}, scale=1.0, noise_mm=0.2, seed=3)
+    rec.columns["tip_z_mm"] = rec.columns["tip_z_mm"] + 3.0 * np.sin(P / 3.0)  # a wobble nothing models
+    diag = run(rec)
+    assert diag.doc["unexplained"] is True
+
+
+def test_noise_is_estimated_from_the_data():
+    rng = np.random.default_rng(0)
+    x = np.linspace(0, 1, 400)
+    r = 0.5 * x ** 2 + rng.normal(0, 0.3, x.size)
+    assert noise_sigma(r, np.zeros(x.size, int), 1e-9) == pytest.approx(0.3, rel=0.15)
