@@ -20,8 +20,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.design import load_design  # noqa: E402
-from pnmold.mesh import MeshSize  # noqa: E402
-from pnmold.quickfe import run_fe  # noqa: E402
+from pnmold.quickfe import BUILD_MESH, run_fe  # noqa: E402
 
 
 def _one(design, step, size, pressures, label):
@@ -55,8 +54,8 @@ def main() -> None:
                         "--out", str(Path(tmp) / "fpn")], check=True)
         step = Path(tmp) / "fpn" / "actuator.step"
         pressures = [args.reference_kpa]
-        coarse = _one(design, step, MeshSize(), pressures, "build mesh")
-        fine = _one(design, step, MeshSize().refined(args.refine), pressures, f"finer x{args.refine:g}")
+        coarse = _one(design, step, BUILD_MESH, pressures, "build mesh")
+        fine = _one(design, step, BUILD_MESH.refined(args.refine), pressures, f"finer x{args.refine:g}")
         a, b = coarse.solution.steps[-1], fine.solution.steps[-1]
         moved = math.hypot(a.tip_x_mm - b.tip_x_mm, a.tip_z_mm - b.tip_z_mm)
         travel = math.hypot(b.tip_x_mm - design.length_mm, b.tip_z_mm)
@@ -70,7 +69,7 @@ def main() -> None:
             except ImportError as err:
                 print(f"peer: skipped ({err}); pip install -r benchmarks/requirements-peer.txt")
             else:
-                compare(design, step)
+                compare(design, step, size=(BUILD_MESH.wall_mm, BUILD_MESH.max_mm))
 
 
 if __name__ == "__main__":

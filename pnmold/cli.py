@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 from rich.console import Console
 from rich.markup import escape
@@ -18,23 +18,27 @@ err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 out_console = Console(highlight=False, soft_wrap=True)
 
 
-def _progress(args) -> Callable[[str], None]:
-    if args.quiet:
-        return lambda stage: None
-    return lambda stage: err_console.print(f"[dim]…[/dim] {stage}")
-
-
 def cmd_build(args) -> int:
     from pnmold.design import load_design
     from pnmold.pipeline import build
+    from pnmold.progress import stage_progress
 
     design = load_design(args.design, args.set)
-    result = build(design, args.out, fem=not args.no_fem, use_slicer=not args.no_slicer,
-                   progress=_progress(args))
+    with stage_progress(err_console, args.quiet, title=f"build {design.name}") as say:
+        result = build(design, args.out, fem=not args.no_fem, use_slicer=not args.no_slicer, progress=say)
     if not args.quiet:
         out_console.print(f"wrote {result.out_dir}/ ({len(result.report['parts'])} parts as "
-                          f"STEP and STL, design.toml, report.json)")
+                          f"STEP and STL, design.toml, report.json, report.html)")
     return _verdict(result.report["checks"], args.quiet)
+
+
+def cmd_report(args) -> int:
+    from pnmold.report_html import write_report
+
+    path = write_report(args.dir)
+    if not args.quiet:
+        out_console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
+    return 0
 
 
 def _verdict(checks: list[dict], quiet: bool) -> int:
@@ -94,21 +98,39 @@ def cmd_material_list(args) -> int:
 
 
 def cmd_simulate(args) -> int:
+    if args.dynamic:
+        from pnmold.pneumatics.cli import cmd_simulate_dynamic
+
+        return cmd_simulate_dynamic(args)
     from pnmold.design import load_design
     from pnmold.fsutil import write_json
     from pnmold.recording import write_recording
-    from pnmold.simulate import SimulationRequest, parse_effects, parse_pressures, recording_columns, simulate_fe
+    from pnmold.simulate import (
+        SimulationRequest,
+        noisy_columns,
+        parse_effects,
+        parse_pressures,
+        recording_columns,
+        simulate_fe,
+        simulate_rom,
+    )
 
-    if args.dynamic:
-        raise UsageError("--dynamic: the pneumatic dynamics are not available in this version")
-    if args.model != "fe":
-        raise UsageError(f"--model {args.model}: the reduced model is not available in this version (use fe)")
     if args.cycles < 1:
         raise UsageError("--cycles must be at least 1")
+    if args.rate_kpa_per_s is not None and not args.rate_kpa_per_s > 0:
+        raise UsageError(f"--rate-kpa-per-s must be > 0, got {args.rate_kpa_per_s:g}")
     design = load_design(args.design, args.set)
     request = SimulationRequest(parse_pressures(args.pressures), args.model, args.kind, args.cycles,
-                                args.orientation, parse_effects(args.effects))
-    doc = simulate_fe(design, request)
+                                args.orientation, parse_effects(args.effects), args.rate_kpa_per_s)
+    if args.model == "rom":
+        from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, cache_path
+        from pnmold.progress import stage_progress
+
+        cached = cache_path(design, DEFAULT_SIZE, DEFAULT_MAX_PRESSURE_KPA).is_file()
+        with stage_progress(err_console, args.quiet or cached, title=f"characterise {design.name} (once)") as say:
+            doc = simulate_rom(design, request, progress=say)
+    else:
+        doc = simulate_fe(design, request)
     if args.json:
         write_json(args.json, doc)
     if args.recording:
@@ -117,7 +139,11 @@ def cmd_simulate(args) -> int:
             meta["effects"] = args.effects.replace(" ", "")
         if args.rate_kpa_per_s:
             meta["rate_kpa_per_s"] = f"{args.rate_kpa_per_s:g}"
-        write_recording(args.recording, args.kind, recording_columns(doc), meta)
+        columns = noisy_columns(recording_columns(doc), noise_mm=args.noise_mm, noise_ml=args.noise_ml,
+                                noise_n=args.noise_n, seed=args.seed)
+        if args.noise_mm or args.noise_ml or args.noise_n:
+            meta["noise"] = f"mm={args.noise_mm:g};ml={args.noise_ml:g};n={args.noise_n:g};seed={args.seed}"
+        write_recording(args.recording, args.kind, columns, meta)
     if not args.quiet:
         for s in doc["steps"]:
             extra = f", force {s['force_n']:.3f} N" if "force_n" in s else ""
@@ -126,6 +152,45 @@ def cmd_simulate(args) -> int:
                               f"cavity {s['cavity_volume_ml']:.3f} mL{extra}")
         fb = doc["full_bend_pressure_kpa"]
         out_console.print(f"full bend: {fb:.1f} kPa" if fb is not None else f"full bend: not reached ({doc['reason']})")
+    return 0
+
+
+def cmd_effects(args) -> int:
+    import json
+
+    from pnmold.physics.effects import EFFECTS, catalogue_json
+
+    if args.json:
+        sys.stdout.write(json.dumps(catalogue_json(), indent=2) + "\n")
+        return 0
+    for e in EFFECTS.values():
+        lo, hi = e.bounds
+        out_console.print(f"[bold]{e.name}[/bold] {e.parameter} [{lo:g}, {hi:g}] {e.unit}, default {e.default:g} "
+                          f"({', '.join(e.kinds)}; {', '.join(e.models)}): {escape(e.description)}")
+        for param, unit, default, (plo, phi) in e.extra:
+            out_console.print(f"    {e.name}.{param} [{plo:g}, {phi:g}] {unit}, default {default:g}")
+    return 0
+
+
+def cmd_diagnose(args) -> int:
+    from pnmold.design import load_design
+    from pnmold.diagnose import diagnose
+    from pnmold.diagnose.model import candidate_effects, read_all, rom_forward
+    from pnmold.diagnose.output import write_json_doc, write_report
+    from pnmold.report import design_entry
+
+    recordings = read_all(args.recordings)  # every file checked before anything is computed or written
+    design = load_design(args.design, args.set)
+    diag = diagnose(design_entry(design), recordings, rom_forward(design, recordings),
+                    candidate_effects(recordings), seed=args.seed)
+    if args.json:
+        write_json_doc(diag, args.json)
+    if args.report:
+        write_report(diag, args.report)
+    if not args.quiet:
+        out_console.print(escape(diag.doc["summary"]))
+        for m in diag.doc["mismatch"]:
+            out_console.print(f"  mismatch: {escape(m['description'])}")
     return 0
 
 
@@ -143,6 +208,45 @@ def cmd_checklist(args) -> int:
         out_console.print(f"wrote {args.out}")
     else:
         out_console.print(text, markup=False)
+    return 0
+
+
+def cmd_sweep(args) -> int:
+    import contextlib
+
+    from pnmold.sweep import default_db, load_sweep, run_sweep
+    from pnmold.sweep.plot import plot_sweep
+    from pnmold.sweep.progress import SweepProgress
+
+    spec = load_sweep(args.sweep)
+    if args.scheduler and args.workers is not None:
+        raise UsageError("--workers sizes the local pool; with --scheduler the cluster's workers run the points")
+    db = args.db or default_db(spec.name)
+    view = contextlib.nullcontext(None) if args.quiet else SweepProgress(err_console, spec.name)
+    try:
+        with view as bar:
+            result = run_sweep(spec, db, scheduler=args.scheduler, workers=args.workers, on_update=bar)
+    except KeyboardInterrupt:
+        err_console.print(f"interrupted: finished points are in {db}; run the same command to resume")
+        return 130
+    written = [str(db)]
+    if args.export == "csv":
+        from pnmold.sweep import SweepStore
+
+        with SweepStore(db, spec.fields) as store:
+            written.append(str(store.export_csv()))
+    if len(spec.axes) == 1 and spec.run.fem:
+        written.append(str(plot_sweep(spec, result.rows, result.db.with_suffix(".png"))))
+    if not args.quiet:
+        statuses = [r["status"] for r in result.rows]
+        tally = ", ".join(f"{statuses.count(s)} {s}" for s in ("ok", "check_failed", "refused", "failed"))
+        for row in result.rows[:40]:
+            inputs = ", ".join(f"{f}={row[f]}" for f in spec.fields)
+            bend = row["full_bend_pressure_kpa"]
+            what = f"full bend {bend:.1f} kPa" if bend is not None else (row["error"] or row["reason"] or "")
+            out_console.print(f"  {inputs}: {row['status']}, {escape(what)}")
+        out_console.print(f"{spec.name}: {len(result.points)} points ({tally}); {result.counts.done} computed now, "
+                          f"{result.counts.skipped} already done; wrote {', '.join(written)}")
     return 0
 
 
@@ -179,20 +283,53 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="print only failures")
     p.set_defaults(handler=cmd_check)
 
-    p = sub.add_parser("simulate", help="quasi-static response (FE) as JSON or a recording",
-                       description="Solve the design's pressure curve with the FE model: free bending, "
-                       "pressure-volume, or blocked tip force; write it as JSON (pnmold.simulation/1) and/or "
-                       "as a recording in the lab format.")
+    p = sub.add_parser("report", help="(re)write report.html of a build folder",
+                       description="Write DIR/report.html, the self-contained page of a build folder: part "
+                       "pictures, a 3D view, the checks, the FE curves and strain, the slicer's estimates and "
+                       "the checklist. Reads the folder's files; changes nothing else.")
+    p.add_argument("dir", help="a build folder (out/<design-name>/)")
+    p.add_argument("--quiet", action="store_true", help="print nothing")
+    p.set_defaults(handler=cmd_report)
+
+    p = sub.add_parser("simulate", help="quasi-static response (FE or reduced model) as JSON or a recording",
+                       description="Solve the design's pressure curve with the FE model or the reduced model "
+                       "(--model rom, characterised by the FE once, cached in out/.cache/fe/): free bending, "
+                       "pressure-volume, or blocked tip force, with physics effects switched on; write it as JSON "
+                       "(pnmold.simulation/1) and/or as a recording in the lab format (synthetic data).")
     _add_design(p)
     p.add_argument("--pressures", default="0:40:5", metavar="A:B:STEP", help="kPa (default 0:40:5)")
     p.add_argument("--model", choices=["fe", "rom"], default="fe")
     p.add_argument("--kind", choices=["bending", "pv", "force"], default="bending")
     p.add_argument("--cycles", type=int, default=1, help="inflate and deflate N times")
-    p.add_argument("--rate-kpa-per-s", type=float, default=None, help="ramp rate (recorded as metadata)")
-    p.add_argument("--effects", metavar="NAME=VALUE,...", help="physics effects (FE: gravity=0|1)")
+    p.add_argument("--rate-kpa-per-s", type=float, default=None,
+                   help="ramp rate: the rows' time_s (viscoelasticity needs it); recorded as metadata")
+    p.add_argument("--effects", metavar="NAME=VALUE,...",
+                   help="physics effects and NAME.PARAM=VALUE (see `pnmold effects`; FE: gravity, "
+                   "strain_stiffening, layer_compliance)")
+    p.add_argument("--noise-mm", type=float, default=0.0, metavar="SIGMA",
+                   help="--recording: Gaussian noise on tip_x_mm and tip_z_mm (standard deviation, mm)")
+    p.add_argument("--noise-ml", type=float, default=0.0, metavar="SIGMA",
+                   help="--recording: Gaussian noise on volume_ml (mL)")
+    p.add_argument("--noise-n", type=float, default=0.0, metavar="SIGMA", help="--recording: noise on force_n (N)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the recording's noise")
     p.add_argument("--orientation", choices=["chambers_up", "chambers_down", "horizontal", "submerged"],
                    default="chambers_up", help="where gravity points (default chambers_up)")
-    p.add_argument("--dynamic", action="store_true", help="time response to a supply step")
+    p.add_argument("--dynamic", action="store_true", help="time response to a supply step (valve opens at t = 0)")
+    p.add_argument("--supply-kpa", type=float, metavar="P", help="--dynamic: regulated supply, gauge kPa (required)")
+    p.add_argument("--valve-orifice-mm", type=float, metavar="D",
+                   help="--dynamic: effective orifice of the supply and vent valves (default 1.0, assumed)")
+    p.add_argument("--valve-sonic-conductance", type=float, metavar="C",
+                   help="--dynamic: the valves' ISO 6358 sonic conductance in dm3/(s bar), instead of the orifice")
+    p.add_argument("--valve-critical-ratio", type=float, metavar="B",
+                   help="--dynamic: the valves' ISO 6358 critical pressure ratio (default 0.5)")
+    p.add_argument("--tubing-length-mm", type=float, help="--dynamic: tubing from valves to actuator (default 300)")
+    p.add_argument("--tubing-id-mm", type=float,
+                   help="--dynamic: tubing bore (default the design's inlet.tubing_id_mm, 1/32 in = 0.79375 mm)")
+    p.add_argument("--vent-at-s", type=float, metavar="T", help="--dynamic: close supply, open vent at T s")
+    p.add_argument("--duration-s", type=float, default=0.5, help="--dynamic: simulated time (default 0.5 s)")
+    p.add_argument("--gas-law", choices=["isothermal", "adiabatic"], default="isothermal",
+                   help="--dynamic: gas in the chambers (default isothermal)")
+    p.add_argument("--plot", metavar="FILE.png", help="--dynamic: figure (default beside --json or --recording)")
     p.add_argument("--recording", metavar="FILE.csv", help="write the result in the recording format")
     p.add_argument("--json", metavar="FILE", help="write pnmold.simulation/1 JSON")
     p.add_argument("--quiet", action="store_true")
@@ -220,6 +357,38 @@ def make_parser() -> argparse.ArgumentParser:
     q.set_defaults(handler=cmd_material_fit)
     q = msub.add_parser("list", help="list the material library", description="List the material library.")
     q.set_defaults(handler=cmd_material_list)
+
+    p = sub.add_parser("sweep", help="many designs from a sweep file, results in SQLite",
+                       description="Build every point of a sweep file (a base design and axes over its "
+                       "fields, grid or random) on local processes or a Dask cluster; one SQLite row per "
+                       "point, committed as it arrives; re-running skips finished points.")
+    p.add_argument("sweep", metavar="SWEEP.toml", help="the sweep file (see templates/sweeps/)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786 (default: "
+                   "local processes)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: the number of cores)")
+    p.add_argument("--db", metavar="FILE", help="results database (default out/sweeps/<sweep-name>.sqlite)")
+    p.add_argument("--export", choices=["csv"], help="also write the table beside the database")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    p.set_defaults(handler=cmd_sweep)
+
+    p = sub.add_parser("diagnose", help="compare recordings with the model and name the missing physics",
+                       description="Compare lab recordings (CONTRACTS.md §4) with the reduced model: recalibrate "
+                       "the modulus, locate the mismatch, name the missing physics from the catalogue of effects "
+                       "(pnmold effects), fit it and show the held-out improvement; or say nothing is missing.")
+    _add_design(p)
+    p.add_argument("recordings", nargs="+", metavar="RECORDING.csv", help="recordings (bending, pv, force)")
+    p.add_argument("--json", metavar="FILE", help="write the diagnosis (schema pnmold.diagnosis/1)")
+    p.add_argument("--report", metavar="DIR", help="write report.html with before/after plots into DIR")
+    p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling (default 0)")
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(handler=cmd_diagnose)
+
+    p = sub.add_parser("effects", help="the catalogue of physics effects",
+                       description="The catalogue of physics effects: name, parameter, unit, default, plausible "
+                       "bounds, the recording kinds that show it, and its fingerprint.")
+    p.add_argument("--json", action="store_true", help="print the catalogue as JSON")
+    p.set_defaults(handler=cmd_effects)
 
     p = sub.add_parser("templates", help="list the design templates",
                        description="List the design templates with one line each.")

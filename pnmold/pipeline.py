@@ -19,6 +19,7 @@ from pnmold.checklist import checklist_sections, render_markdown
 from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
 from pnmold.fsutil import staged_dir, write_json, write_text
+from pnmold.report_html import write_report
 
 if TYPE_CHECKING:
     from pnmold.mesh import MeshSize
@@ -108,15 +109,19 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
             report["fem"] = timed("fem", _quick_fe, design, tmp, fem_size)
         write_json(tmp / "report.json", report)
         write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
+        timed("report", write_report, tmp, report)
+        write_json(tmp / "report.json", report)  # again, with the report stage's time
     return BuildResult(design, final, report)
 
 
 def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
     """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
-    from pnmold.quickfe import bending_figure, fem_report, run_fe
+    from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, bending_figure, fem_report, run_fe, write_field
 
-    run = run_fe(design, folder / "actuator.step", size=size, keep_partial=True)
+    run = run_fe(design, folder / "actuator.step", size=size or BUILD_MESH, options=BUILD_OPTIONS,
+                 keep_partial=True)
     bending_figure(design, run, folder / "bending.png")
+    write_field(run, folder / "fem_field.npz")
     section = fem_report(run)
     section["timings_s"] = run.timings_s
     return section

@@ -171,7 +171,8 @@ def read_recording(path: str | Path) -> Recording:
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
-            raise RecordingError(p, line, f"{len(row)} fields, the header has {len(header)}")
+            where = header[len(row)] if len(row) < len(header) else len(header) + 1
+            raise RecordingError(p, line, f"{len(row)} fields, the header has {len(header)}", column=where)
         for name, cell in zip(header, row, strict=True):
             if name in data:
                 data[name].append(_cell(cell, p, line, name))
@@ -181,7 +182,23 @@ def read_recording(path: str | Path) -> Recording:
     columns = {c: np.array(v, dtype=object if c in _TEXT_COLUMNS else float) for c, v in data.items()}
     if "cycle" in columns:
         columns["cycle"] = columns["cycle"].astype(int)
+    if "time_s" in columns:
+        back = np.flatnonzero(np.diff(columns["time_s"]) < 0)
+        if back.size:
+            raise RecordingError(p, _data_line(rows, header_line, int(back[0]) + 1), "time goes backwards",
+                                 column="time_s")
     return Recording(p, kind, columns, meta)
+
+
+def _data_line(rows: list[list[str]], header_line: int, index: int) -> int:
+    """File line of the ``index``-th (0-based) non-blank data row."""
+    seen = -1
+    for offset, row in enumerate(rows[1:], 1):
+        if row and any(c.strip() for c in row):
+            seen += 1
+            if seen == index:
+                return header_line + offset
+    return header_line + len(rows) - 1
 
 
 def format_recording(kind: str, columns: dict[str, np.ndarray], metadata: dict[str, str] | None = None) -> str:

@@ -4,6 +4,9 @@
 #   python3-venv      `python3 -m venv` for the project's virtualenv
 #   libglu1-mesa ...  shared libraries the PyPI wheels of gmsh and cadquery-ocp load
 #   prusa-slicer      the real slicer behind pnmold.slicer (its CLI runs headless as is)
+#   libegl-mesa0 ...  EGL with Mesa's software renderer: pnmold.render draws the report's
+#                     pictures with VTK off screen, without a display or a GPU
+#   chromium ...      headless browser and its WebDriver: the test of report.html opens the page
 #
 # Only missing packages are installed (checked with `dpkg -s`); when nothing is missing,
 # apt is not touched and root is not needed. Otherwise run as root, or with sudo present.
@@ -14,6 +17,8 @@ PACKAGES=(
     libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1 libgomp1 libxi6
     libxext6
     prusa-slicer
+    libegl1 libegl-mesa0 libgl1-mesa-dri
+    chromium chromium-driver
 )
 
 is_installed() {

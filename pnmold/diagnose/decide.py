@@ -32,7 +32,15 @@ EXCESS_SIGMA = 6.0
 #: share of bootstrap resamples the accepted effect must win
 STABILITY = 0.7
 BOOTSTRAP = 12
-STARTS = (0.03, 0.15, 0.4, 0.8)  # multi-start points of an effect's parameter, as a share of its range
+#: multi-start points of an effect's main parameter, as a share of its range
+STARTS = (0.03, 0.15, 0.4, 0.8)
+#: extra parameters fitted besides an effect's main one (the others stay at their catalogue
+#: defaults: Yeoh C30 is nearly collinear with C20 on a bending curve, and the Mullins
+#: exponent only shapes the reloading branch)
+FIT_EXTRAS = {"viscoelasticity": ("tau_s",), "self_contact": ("gap_scale",)}
+#: start values of those extras (the misfit is flat in an effect's strength until its onset
+#: or time scale is near the data's)
+EXTRA_STARTS = {"viscoelasticity.tau_s": (0.3, 2.0, 12.0), "self_contact.gap_scale": (0.3, 0.6, 1.0, 2.0)}
 
 
 @dataclass
@@ -78,6 +86,8 @@ def effect_parameters(effect) -> tuple[Parameter, ...]:
     params = [Parameter(effect.name, lo + 0.1 * (hi - lo), lo, hi)]
     for extra in effect.extra:
         key, _unit, default, (elo, ehi) = extra[0], extra[1], extra[2], extra[3]
+        if key not in FIT_EXTRAS.get(effect.name, ()):
+            continue
         params.append(Parameter(f"{effect.name}.{key}", float(default), float(elo), float(ehi)))
     return tuple(params)
 
@@ -97,21 +107,22 @@ def judge(fitter: Fitter, h: Hypothesis, starts: list[np.ndarray]) -> Candidate:
 
 
 def starts_for(h: Hypothesis, base: np.ndarray | None = None) -> list[np.ndarray]:
-    """Multi-start points: the calibration (and any effect already fitted) from ``base``,
-    the newest effect's main parameter spread over its range."""
+    """Multi-start points: the calibration (and any effect already fitted) from ``base``; the
+    newest effect's main parameter spread over its range, crossed with its extras' grids."""
     x0 = np.array([p.start for p in h.parameters])
     if base is not None:
         x0[:base.size] = base
-    newest = next((i for i in range(len(h.parameters) - 1, -1, -1)
-                   if not h.parameters[i].calibration and "." not in h.parameters[i].key), None)
-    if newest is None:
-        return [x0]
-    out = []
-    p = h.parameters[newest]
-    for share in STARTS:
-        x = x0.copy()
-        x[newest] = p.low + share * (p.high - p.low)
-        out.append(x)
+    grids = []
+    for i, p in enumerate(h.parameters):
+        if base is not None and i < base.size or p.calibration:
+            continue
+        if "." not in p.key:
+            grids.append((i, [p.low + share * (p.high - p.low) for share in STARTS]))
+        elif p.key in EXTRA_STARTS:
+            grids.append((i, list(EXTRA_STARTS[p.key])))
+    out = [x0]
+    for i, values in grids:
+        out = [np.where(np.arange(x.size) == i, v, x) for x in out for v in values]
     return out
 
 

@@ -14,7 +14,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from pnmold.errors import SolveError
+
 from .data import DataSet
+
+#: z-score given to rows the model could not predict
+FAILED_Z = 1e4
+#: start points optimised from (more are screened by their misfit first)
+MAX_STARTS = 2
 
 #: forward(effects, calibration) -> one prediction (columns by name) per recording;
 #: ``effects`` holds ``name`` -> value and ``name.param`` -> value (CONTRACTS.md §5)
@@ -95,9 +102,13 @@ class Fitter:
 
     def z(self, h: Hypothesis, x: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
         """z-scores of every row; with ``weight`` (rows' multiplicities, e.g. 0 for held-out
-        rows, bootstrap counts) the rows with weight > 0, scaled by sqrt(weight)."""
-        z = zscores(self.data, self.predict(h, x))
-        z = np.where(np.isfinite(z), z, 1e6)  # a failed prediction is a very bad fit
+        rows, bootstrap counts) the rows with weight > 0, scaled by sqrt(weight). Parameters
+        the model cannot solve for (no equilibrium) score as a very bad fit."""
+        try:
+            z = zscores(self.data, self.predict(h, x))
+        except SolveError:
+            z = np.full(self.data.n, FAILED_Z)
+        z = np.where(np.isfinite(z), z, FAILED_Z)
         if weight is None:
             return z
         keep = weight > 0
@@ -108,10 +119,13 @@ class Fitter:
         """Best parameters of ``h`` on the rows weighted by ``weight`` (all rows when None)."""
         lo = np.array([p.low for p in h.parameters])
         hi = np.array([p.high for p in h.parameters])
-        starts = starts or [np.array([p.start for p in h.parameters])]
+        starts = [np.clip(x, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+                  for x in (starts or [np.array([p.start for p in h.parameters])])]
+        if len(starts) > MAX_STARTS:  # screen: optimise from the few best start points only
+            screen = [float(np.sum(self.z(h, x, weight) ** 2)) for x in starts]
+            starts = [starts[i] for i in np.argsort(screen)[:MAX_STARTS]]
         best = None
         for x0 in starts:
-            x0 = np.clip(x0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
             res = least_squares(lambda x: self.z(h, x, weight), x0, bounds=(lo, hi), x_scale=hi - lo,
                                 diff_step=1e-4, max_nfev=max_nfev)
             chi2 = float(np.sum(res.fun ** 2))

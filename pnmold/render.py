@@ -1,0 +1,221 @@
+"""Pictures for the report a person reads: each part, the strain on the bent actuator, curves,
+and the GLB models of the interactive view.
+
+Parts are drawn with PyVista (VTK) off screen through EGL, which Mesa's software renderer
+(``libegl-mesa0``, installed by ``scripts/install-system-deps.sh``) provides without a
+display or a GPU. :func:`pictures` draws them in a child process (``python -m
+pnmold.render``), because VTK ends its process when it finds no OpenGL at all: a build then
+loses its pictures, with the reason, not its life. Curves are matplotlib (Agg). Everything
+returns PNG or GLB bytes.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from pnmold.layout import CAST_PARTS, MOLDS, USES
+
+#: the parts in the order a person reads them
+PARTS = CAST_PARTS + MOLDS
+#: seen from below (turned over): the top layer's open cavities, the exterior mold's inside
+UPSIDE_DOWN = frozenset({"top_layer"} | {m for m, use in USES.items() if use.print_up[2] < 0})
+COLOURS = {"actuator": "#7fb8d8", "top_layer": "#8cc4e0", "bottom_layer": "#6fa8c8", "paper": "#efe9d2",
+           "mold_interior": "#d9534f", "mold_exterior": "#6b9be8", "mold_bottom": "#5cb85c"}
+PICTURE_PX = (760, 420)
+#: the interactive view keeps at most this many triangles per part (decimated above)
+MAX_VIEWER_FACES = 60_000
+STRETCH_LABEL = "largest principal stretch"
+
+
+def _plotter(size: tuple[int, int] = PICTURE_PX):
+    """An off-screen plotter on EGL: no X display is needed, and a broken DISPLAY is ignored."""
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    import pyvista as pv
+
+    plotter = pv.Plotter(off_screen=True, window_size=list(size))
+    plotter.set_background("white")
+    plotter.enable_anti_aliasing("ssaa")
+    return plotter
+
+
+def _look(plotter, direction: tuple[float, float, float], up: tuple[float, float, float], zoom: float) -> None:
+    """Point the camera at the scene's centre from ``direction`` and fit the scene."""
+    (x0, x1, y0, y1, z0, z1) = plotter.bounds
+    centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2])
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    plotter.camera_position = [tuple(centre + 1000 * d), tuple(centre), up]
+    plotter.reset_camera()
+    plotter.camera.zoom(zoom)
+
+
+def _png(plotter) -> bytes:
+    img = plotter.screenshot(return_img=True)
+    plotter.close()
+    if img.std() == 0:
+        raise RuntimeError("the offscreen renderer drew a blank picture (no working OpenGL?)")
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(img).save(buf, format="PNG", optimize=True)
+    return buf.getvalue()
+
+
+def part_picture(stl_path: str | Path, name: str) -> bytes:
+    """PNG of one part, flat-shaded with its edges, in its use orientation (see UPSIDE_DOWN)."""
+    import pyvista as pv
+
+    mesh = pv.read(str(stl_path))
+    plotter = _plotter()
+    actor = plotter.add_mesh(mesh, color=COLOURS.get(name, "#bbbbbb"), smooth_shading=False, specular=0.2)
+    actor.mapper.SetResolveCoincidentTopologyToPolygonOffset()  # the edges drawn over the faces stay visible
+    plotter.add_mesh(mesh.extract_feature_edges(30.0), color="#222222", line_width=1.5)
+    sign = -1.0 if name in UPSIDE_DOWN else 1.0
+    _look(plotter, (0.8, -1.3, 1.1 * sign), (0.0, 0.0, sign), zoom=1.45)
+    return _png(plotter)
+
+
+def mirrored(nodes: np.ndarray, tris: np.ndarray, *values: np.ndarray):
+    """A half model (y >= 0) completed by its mirror image in y = 0 (winding flipped)."""
+    flipped = nodes * np.array([1.0, -1.0, 1.0])
+    out_tris = np.vstack([tris, tris[:, ::-1] + len(nodes)])
+    return (np.vstack([nodes, flipped]), out_tris, *(np.concatenate([v, v]) for v in values))
+
+
+def strain_picture(field_path: str | Path) -> bytes:
+    """PNG of the deformed surface coloured by the largest principal stretch, with a colour bar.
+
+    ``field_path``: ``fem_field.npz`` with ``nodes_mm``, ``displacement_mm``, ``surface_tris``,
+    ``stretch`` (per node) and optionally ``half`` (else: half when no node has y < 0)."""
+    import pyvista as pv
+
+    with np.load(field_path) as f:
+        nodes, disp = f["nodes_mm"].astype(float), f["displacement_mm"].astype(float)
+        tris, stretch = f["surface_tris"].astype(np.int64), f["stretch"].astype(float)
+        half = bool(f["half"]) if "half" in f.files else nodes[:, 1].min() > -1e-6
+    if half:
+        nodes, tris, disp, stretch = mirrored(nodes, tris, disp * np.array([1.0, -1.0, 1.0]), stretch)
+    faces = np.hstack([np.full((len(tris), 1), 3), tris]).ravel()
+    surface = pv.PolyData(nodes + disp, faces)
+    surface.point_data[STRETCH_LABEL] = stretch
+    plotter = _plotter((820, 520))
+    plotter.add_mesh(surface, scalars=STRETCH_LABEL, cmap="viridis", smooth_shading=False,
+                     scalar_bar_args={"title": STRETCH_LABEL, "fmt": "%.2f", "color": "black", "width": 0.6,
+                                      "position_x": 0.2, "position_y": 0.03, "title_font_size": 18,
+                                      "label_font_size": 15})
+    at = int(np.argmax(stretch))
+    plotter.add_point_labels([surface.points[at]], [f"max {stretch[at]:.2f}"], point_size=10,
+                             point_color="cyan", font_size=14, always_visible=True)
+    _look(plotter, (0.35, -1.0, 0.45), (0.0, 0.0, 1.0), zoom=1.1)
+    return _png(plotter)
+
+
+def curve_png(series: list[tuple[list[float], list[float], str]], xlabel: str, ylabel: str, title: str) -> bytes:
+    """PNG of one or more (x, y, label) curves."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.2, 3.6))
+    for x, y, label in series:
+        ax.plot(x, y, "o-", ms=3, label=label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    if len(series) > 1:
+        ax.legend(fontsize=8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _viewer_mesh(stl_path: Path, name: str, max_faces: int):
+    import trimesh
+    from trimesh.visual.material import PBRMaterial
+
+    mesh = trimesh.load(stl_path, force="mesh")
+    if len(mesh.faces) > max_faces:
+        import pyvista as pv
+
+        small = pv.wrap(mesh).triangulate().decimate(1.0 - max_faces / len(mesh.faces))
+        mesh = trimesh.Trimesh(small.points, small.faces.reshape(-1, 4)[:, 1:], process=False)
+    if name in UPSIDE_DOWN:
+        mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi, (1, 0, 0)))
+    srgb = [int(COLOURS.get(name, "#bbbbbb")[i:i + 2], 16) / 255 for i in (1, 3, 5)]
+    rgb = [round(255 * ((c + 0.055) / 1.055) ** 2.4) for c in srgb]  # glTF colour factors are linear
+    mesh.visual = trimesh.visual.TextureVisuals(
+        material=PBRMaterial(name=name, baseColorFactor=[*rgb, 255], metallicFactor=0.0, roughnessFactor=0.75))
+    return mesh
+
+
+def glb(folder: str | Path, names: list[str] | tuple[str, ...], *, gap_mm: float = 8.0,
+        max_faces: int = MAX_VIEWER_FACES) -> bytes:
+    """GLB of the named parts' STL files, side by side across y in their use orientation.
+
+    No normals are written, so the viewer shades each triangle flat (glTF's rule); the
+    actuator frame's z-up turns to glTF's y-up."""
+    import trimesh
+
+    to_y_up = trimesh.transformations.rotation_matrix(-np.pi / 2, (1, 0, 0))
+    scene = trimesh.Scene()
+    y = 0.0
+    for name in names:
+        mesh = _viewer_mesh(Path(folder) / f"{name}.stl", name, max_faces)
+        (x0, y0, z0), (_, y1, _) = mesh.bounds
+        mesh.apply_translation((-x0, y - y0, -z0))
+        y += (y1 - y0) + gap_mm
+        mesh.apply_transform(to_y_up)
+        scene.add_geometry(mesh, node_name=name, geom_name=name)
+    return scene.export(file_type="glb", include_normals=False)
+
+
+DRAW = {"part": part_picture, "strain": strain_picture}
+RENDER_TIMEOUT_S = 600
+
+
+def pictures(jobs: dict[str, tuple[str, ...]]) -> dict[str, bytes | str]:
+    """Draw ``jobs`` (key -> ``("part", stl_path, name)`` or ``("strain", npz_path)``) in a
+    child process: key -> PNG bytes, or the reason there is no picture."""
+    with tempfile.TemporaryDirectory(prefix="pnmold-render-") as tmp:
+        spec = json.dumps({key: [str(v) for v in job] for key, job in jobs.items()})
+        home = str(Path(__file__).resolve().parents[1])  # this pnmold, installed or not
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [home, os.environ.get("PYTHONPATH")]))}
+        try:
+            proc = subprocess.run([sys.executable, "-m", "pnmold.render", tmp], input=spec, capture_output=True,
+                                  text=True, timeout=RENDER_TIMEOUT_S, env=env)
+            lines = [ln for ln in re.sub(r"\x1b\[[0-9;]*m", "", proc.stderr).splitlines() if ln.strip()]
+            stopped = f"the renderer stopped (exit code {proc.returncode}){': ' + lines[-1] if lines else ''}"
+        except subprocess.TimeoutExpired:
+            stopped = f"the renderer took longer than {RENDER_TIMEOUT_S} s"
+        out: dict[str, bytes | str] = {}
+        for key in jobs:
+            png, err = Path(tmp) / f"{key}.png", Path(tmp) / f"{key}.err"
+            out[key] = png.read_bytes() if png.is_file() else err.read_text() if err.is_file() else stopped
+    return out
+
+
+def _serve(folder: str) -> None:
+    """The child of :func:`pictures`: jobs as JSON on stdin, ``<key>.png`` or ``<key>.err`` into ``folder``."""
+    for key, (kind, *args) in json.load(sys.stdin).items():
+        try:
+            data = DRAW[kind](*args)
+        except (OSError, ValueError, KeyError, RuntimeError) as err:
+            Path(folder, f"{key}.err").write_text(f"{type(err).__name__}: {err}")
+            continue
+        Path(folder, f"{key}.png.part").write_bytes(data)
+        os.replace(Path(folder, f"{key}.png.part"), Path(folder, f"{key}.png"))
+
+
+if __name__ == "__main__":
+    _serve(sys.argv[1])
