@@ -32,3 +32,65 @@ def test_damaged_recording_is_refused_and_nothing_is_written(name, tmp_path, cap
         assert str(column) in err
     assert not out_json.exists() and not report.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["good.csv", f"{name}.csv"])
+
+
+# -- a small fixed subset of the blind benchmark (data from the reduced model) -------------
+SUBSET = [  # (id, effect, value, extras, modulus scale, orientation)
+    ("null", None, 0.0, {}, 1.08, "chambers_up"),
+    ("gravity", "gravity", 0.8, {}, 0.93, "chambers_down"),
+    ("mullins", "mullins", 0.2, {}, 1.05, "horizontal"),
+    ("visco", "viscoelasticity", 0.3, {"viscoelasticity.tau_s": 2.0}, 0.95, "chambers_up"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", SUBSET, ids=[c[0] for c in SUBSET])
+def test_blind_subset_names_the_concealed_effect(case, tmp_path):
+    from benchmarks.diagnose_blind import Case, diagnose_case, generate
+    from pnmold.design import load_design
+    from pnmold.physics.characterise import characterise
+
+    cid, effect, value, extras, scale, orientation = case
+    char = characterise(load_design("fpn"))
+    p_max = 0.85 * (char.full_bend_pressure_kpa or char.max_pressure_kpa)
+    generate(Case(cid, "fpn", effect, value, extras, scale, orientation, 2.0, p_max, 6.0, "rom", 11), tmp_path)
+    assert "effect" not in (tmp_path / "bending.csv").read_text()  # no label in the data
+    doc, seconds, err = diagnose_case(tmp_path, "fpn")
+    assert doc is not None, err
+    named = [m["effect"] for m in doc["missing_physics"]]
+    if effect is None:
+        assert named == [] and doc["unexplained"] is False
+        return
+    assert named[:1] == [effect]
+    assert doc["missing_physics"][0]["parameters"][effect] == pytest.approx(value, rel=0.2)
+    assert doc["fit"]["heldout_rmse_before"] >= 3 * doc["fit"]["heldout_rmse_after"]
+    assert doc["mismatch"] and doc["mismatch"][0]["significance"] > 4
+
+
+@pytest.mark.slow
+def test_report_and_json_follow_the_contract(tmp_path):
+    import json
+
+    from benchmarks.diagnose_blind import Case, generate
+    from pnmold.design import load_design
+    from pnmold.physics.characterise import characterise
+
+    char = characterise(load_design("fpn"))
+    p_max = 0.85 * (char.full_bend_pressure_kpa or char.max_pressure_kpa)
+    generate(Case("g", "fpn", "layer_compliance", 0.1, {}, 1.0, "horizontal", 2.0, p_max, 8.0, "rom", 5), tmp_path)
+    out = tmp_path / "diag.json"
+    code = main(["diagnose", "fpn", str(tmp_path / "bending.csv"), str(tmp_path / "pv.csv"), "--json", str(out),
+                 "--report", str(tmp_path / "report"), "--quiet"])
+    assert code == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "pnmold.diagnosis/1"
+    for key in ("design", "recordings", "baseline", "mismatch", "missing_physics", "unexplained", "fit"):
+        assert key in doc, key
+    assert set(doc["baseline"]) >= {"calibrated", "rmse", "heldout_rmse"}
+    assert set(doc["fit"]) >= {"rmse_before", "rmse_after", "heldout_rmse_before", "heldout_rmse_after"}
+    m = doc["missing_physics"][0]
+    assert m["effect"] == "layer_compliance" and "explanation" in m and "uncertainty" in m
+    assert "layer" in m["explanation"] and "held-out error fell" in m["explanation"]
+    page = (tmp_path / "report" / "report.html").read_text()
+    assert "data:image/png;base64," in page and "layer_compliance" in page
+    assert (tmp_path / "report" / "fits.png").stat().st_size > 20_000
