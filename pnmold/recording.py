@@ -24,7 +24,8 @@ KINDS = {
     "bending": (("pressure_kpa", "tip_x_mm", "tip_z_mm"), ("bend_angle_deg", "cycle", "phase", "time_s")),
     "pv": (("volume_ml", "pressure_kpa"), ("cycle", "phase", "time_s")),
     "force": (("pressure_kpa", "force_n"), ("cycle", "phase")),
-    "step": (("time_s", "supply_kpa", "pressure_kpa"), ("flow_slpm", "bend_angle_deg", "tip_x_mm", "tip_z_mm")),
+    "step": (("time_s", "supply_kpa", "pressure_kpa"),
+             ("flow_slpm", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "pressure_far_kpa", "volume_ml")),
 }
 ORIENTATIONS = ("chambers_up", "chambers_down", "horizontal", "submerged")
 PHASES = ("inflate", "deflate")

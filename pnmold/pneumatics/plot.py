@@ -1,0 +1,38 @@
+"""The step response figure: pressures, flow and bend angle against time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pnmold.plots import plt, save_figure
+from pnmold.pneumatics.dynamics import FULL_BEND_DEG, StepResponse
+
+
+def plot_step(response: StepResponse, title: str, path: str | Path) -> Path:
+    """Three panels sharing the time axis (ms): pressures, flow, bend angle."""
+    s = response.series
+    t_ms = s["time_s"] * 1000
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    ax = axes[0]
+    ax.plot(t_ms, s["supply_kpa"], "k:", lw=1, label="supply")
+    ax.plot(t_ms, s["pressure_kpa"], lw=1.6, label="inlet")
+    ax.plot(t_ms, s["pressure_near_kpa"], lw=1.2, label="chamber 1 (near)")
+    ax.plot(t_ms, s["pressure_far_kpa"], lw=1.2, label=f"chamber {response.chamber_pressure_kpa.shape[1]} (far)")
+    ax.set_ylabel("pressure (kPa, gauge)")
+    ax.legend(fontsize=8)
+    axes[1].plot(t_ms, s["flow_slpm"], lw=1.4)
+    axes[1].set_ylabel("flow (SLPM, at the valves)")
+    axes[2].plot(t_ms, s["bend_angle_deg"], lw=1.6)
+    axes[2].axhline(FULL_BEND_DEG, color="grey", ls=":", lw=1)
+    tfb = response.time_to_full_bend_s
+    if tfb is not None:
+        for a in axes:
+            a.axvline(tfb * 1000, color="red", ls="--", lw=1)
+        axes[2].annotate(f"full bend {tfb * 1000:.1f} ms", (tfb * 1000, FULL_BEND_DEG), fontsize=8, color="red",
+                         xytext=(5, -15), textcoords="offset points")
+    axes[2].set_ylabel("bend angle (deg)")
+    axes[2].set_xlabel("time (ms)")
+    for a in axes:
+        a.grid(alpha=0.3)
+    axes[0].set_title(title, fontsize=10)
+    return save_figure(fig, path)

@@ -1,0 +1,379 @@
+"""Pneumatic dynamics: restrictions, closed-form filling and venting, conservation,
+convergence, the step response's physics, the two effects, and ``simulate --dynamic``.
+
+Every test here runs on analytic chamber laws, so none depends on the FE; the one slow
+test uses the real characterisation of the fPN when ``pnmold.physics.characterise`` exists.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pnmold.cli import main
+from pnmold.design import load_design
+from pnmold.pneumatics import (
+    DYNAMIC_EFFECTS,
+    ActuatorLine,
+    BendingDynamics,
+    Duct,
+    Network,
+    Orifice,
+    Rig,
+    chamber_law_from_curve,
+    dead_volume_pv_offset_ml,
+    simulate_network,
+    simulate_step,
+    with_effects,
+)
+from pnmold.pneumatics.gas import (
+    MU_AIR,
+    P_ATM_PA,
+    R_AIR,
+    RE_CROSS,
+    RHO_REF,
+    T_REF_K,
+    duct_mass_flow_kg_s,
+    slpm_from_kg_s,
+)
+from pnmold.pneumatics.mechanics import elastomer_volume_ml, inertia_shape
+from pnmold.recording import read_recording
+
+RT = R_AIR * T_REF_K
+PA = P_ATM_PA
+
+
+# -- analytic laws -------------------------------------------------------------------
+def linear_law(v0_ml=11.0, ml_per_kpa=0.3, deg_per_kpa=7.5, length_mm=111.0, p_max=60.0):
+    """Cavity volume and bend angle linear in pressure (full bend at 48 kPa), tip on an arc."""
+    p = np.linspace(0.0, p_max, 13)
+    a = deg_per_kpa * p
+    th = np.radians(a)
+    return chamber_law_from_curve(p, v0_ml + ml_per_kpa * p, a, length_mm * np.sinc(th / np.pi),
+                                  -length_mm * (th / 2) * np.sinc(th / (2 * np.pi)) ** 2, length_mm=length_mm)
+
+
+class ProtocolLaw:
+    """A bare ChamberLaw (no derivative, no inverse): the model must cope on its own."""
+
+    def volume_ml(self, p_kpa):
+        return 6.0 + 0.2 * np.asarray(p_kpa, float) + 0.001 * np.asarray(p_kpa, float) ** 2
+
+    def bend_angle_deg(self, p_kpa):
+        return 6.0 * np.asarray(p_kpa, float)
+
+    def tip_mm(self, p_kpa):
+        return 100.0 * np.cos(np.radians(self.bend_angle_deg(p_kpa))), -np.asarray(p_kpa, float)
+
+
+LINE3 = ActuatorLine(chambers=3, channel_height_mm=1.0, channel_width_mm=2.0, inlet_channel_mm=2.0, link_mm=4.0)
+BEND = BendingDynamics(mass_kg=0.019, length_m=0.111, moment_per_pa=1.21e-6)
+SETTLED = BendingDynamics(mass_kg=0.019, length_m=0.111, moment_per_pa=1.21e-6, damping_ratio=1.0)
+FPN = load_design("fpn")
+SMALL = dict(v0_ml=3.0, ml_per_kpa=0.05)  # a small cavity: quick tests
+
+
+def rigid_network(volume_m3, orifice, *, vent=False, p_supply=4 * PA):
+    """One rigid volume fed from the supply (or venting to the atmosphere) through ``orifice``."""
+    edge = (0, 2, orifice, "supply") if vent else (1, 0, orifice, "supply")
+    return Network(np.array([volume_m3]), np.array([0.0]), None, (edge,), (), p_supply, PA)
+
+
+# -- restrictions --------------------------------------------------------------------
+def test_orifice_regimes_follow_iso6358():
+    o = Orifice.from_diameter_mm(1.0, 0.4)
+    # S ~ 5 C: 0.2 dm3/(s bar) per mm2 of effective area (ideal nozzle, ANR reference)
+    assert o.conductance_l_per_s_bar == pytest.approx(0.2 * math.pi / 4, rel=0.01)
+    p_up = 5e5
+    choked = o.conductance_m3_per_s_pa * RHO_REF * p_up
+    assert o.mass_flow_kg_s(p_up, [0.0, 1e5, 2e5]) == pytest.approx([choked] * 3, rel=1e-12)
+    r = 0.7
+    assert float(o.mass_flow_kg_s(p_up, r * p_up)) == pytest.approx(choked * math.sqrt(1 - ((r - 0.4) / 0.6) ** 2))
+    # continuous through the laminar zone and zero at equal pressures; colder gas flows more
+    near = o.mass_flow_kg_s(p_up, p_up * np.array([0.999 - 1e-9, 0.999 + 1e-9, 1.0]))
+    assert near[0] == pytest.approx(near[1], rel=1e-5) and near[2] == 0.0
+    assert float(o.mass_flow_kg_s(p_up, 0.0, 0.25 * T_REF_K)) == pytest.approx(2 * choked)
+
+
+def test_laminar_duct_is_compressible_hagen_poiseuille():
+    tube = Duct.tube(300.0, 0.79375, minor_loss=0.0)
+    p_up, p_dn = PA + 200.0, PA
+    q = float(duct_mass_flow_kg_s(p_up, p_dn, T_REF_K, [tube])[0])
+    d = tube.diameter_m
+    exact = math.pi * d**4 * (p_up**2 - p_dn**2) / (256 * MU_AIR * tube.length_m * RT)
+    assert q == pytest.approx(exact, rel=1e-10)
+    assert q / tube.area_m2 * d / MU_AIR < RE_CROSS
+
+
+def test_turbulent_duct_solves_blasius_and_chokes():
+    tube = Duct.tube(300.0, 0.79375)
+    d, length, k = tube.diameter_m, tube.length_m, tube.minor_loss
+    p_up = 4.4e5
+    for p_dn in (3.5e5, 3.0e5):
+        g = float(duct_mass_flow_kg_s(p_up, p_dn, T_REF_K, [tube])[0]) / tube.area_m2
+        re = g * d / MU_AIR
+        assert re > RE_CROSS
+        f = 0.3164 * re**-0.25
+        assert g**2 * RT * (f * length / d + k) == pytest.approx(p_up**2 - p_dn**2, rel=1e-10)
+    # against a vacuum the flux is capped where the outlet reaches the isothermal limit (v = sqrt(RT))
+    g = float(duct_mass_flow_kg_s(p_up, 0.0, T_REF_K, [tube])[0]) / tube.area_m2
+    f = 0.3164 * (g * d / MU_AIR) ** -0.25
+    assert g**2 * RT * (1 + f * length / d + k) == pytest.approx(p_up**2, rel=1e-10)
+    assert g == pytest.approx(float(duct_mass_flow_kg_s(p_up, 0.5 * g * math.sqrt(RT), T_REF_K, [tube])[0])
+                              / tube.area_m2, rel=1e-12)
+
+
+# -- closed forms on a rigid volume ----------------------------------------------------
+@pytest.mark.parametrize("b", [0.3, 0.5], ids=["b0.3", "b0.5"])
+def test_filling_a_rigid_volume_matches_the_closed_form(b):
+    """Isothermal filling from p_a through an ISO 6358 orifice from a supply p_s:
+
+    choked (p <= b p_s): q = C rho0 p_s, constant, so p = p_a + (R T C rho0 p_s / V) t;
+    subsonic: with u = (p/p_s - b)/(1 - b), du/dt = k sqrt(1 - u^2), k = R T C rho0 / (V (1 - b)),
+    so u = sin(k (t - t_b)) (derived from ISO 6358's elliptic law; valid until the laminar zone)."""
+    o = Orifice.from_diameter_mm(0.5, b)
+    volume, ps = 10e-6, 4 * PA
+    c = o.conductance_m3_per_s_pa
+    t_b = (b * ps - PA) * volume / (RT * c * RHO_REF * ps)
+    k = RT * c * RHO_REF / (volume * (1 - b))
+    t_end = 0.999 * (t_b + math.asin((0.999 - b) / (1 - b)) / k)
+    res = simulate_network(rigid_network(volume, o), t_end, out_step_s=t_end / 400)
+    t, p = res["time_s"], res["pressure_pa"][0]
+    exact = np.where(t <= t_b, PA + RT * c * RHO_REF * ps * t / volume, ps * (b + (1 - b) * np.sin(k * (t - t_b))))
+    assert np.max(np.abs(p - exact)) / (ps - PA) < 1e-4
+    choked = t < t_b
+    assert np.max(np.abs(np.diff(p[choked], 2))) < 1e-6 * (ps - PA)  # linear in time while choked
+
+
+def test_venting_a_rigid_volume_matches_the_closed_form():
+    """Isothermal venting to p_a through an ISO 6358 orifice with b = 0.5:
+
+    choked (p_a/p <= b): dp/dt = -p / tau, tau = V / (R T C rho0): p = p0 exp(-t / tau) until t_b;
+    subsonic: x = p_a/p, u = (x - b)/(1 - b): du/dt = (b + (1 - b) u) sqrt(1 - u^2) / ((1 - b) tau);
+    for b = 1/2, int du / ((1 + u) sqrt(1 - u^2)) = -sqrt((1 - u)/(1 + u)), so with
+    s = 1 - (t - t_b)/tau, u = (1 - s^2)/(1 + s^2)."""
+    b = 0.5
+    o = Orifice.from_diameter_mm(0.5, b)
+    volume, p0 = 10e-6, 4 * PA
+    tau = volume / (RT * o.conductance_m3_per_s_pa * RHO_REF)
+    t_b = tau * math.log(p0 * b / PA)
+    u_lam = (0.999 - b) / (1 - b)
+    t_end = 0.999 * (t_b + tau * (1 - math.sqrt((1 - u_lam) / (1 + u_lam))))
+    res = simulate_network(rigid_network(volume, o, vent=True), t_end, out_step_s=t_end / 400, initial_pa=[p0])
+    t, p = res["time_s"], res["pressure_pa"][0]
+    s = 1 - (t - t_b) / tau
+    u = (1 - s * s) / (1 + s * s)
+    exact = np.where(t <= t_b, p0 * np.exp(-t / tau), PA / (b + (1 - b) * u))
+    assert np.max(np.abs(p - exact) / (exact - PA)) < 1e-3
+    assert res["metered_kg"][-1] == pytest.approx(-(p0 - p[-1]) * volume / RT, rel=1e-6)
+
+
+# -- conservation and convergence -----------------------------------------------------
+@pytest.mark.parametrize("gas_law", ["isothermal", "adiabatic"])
+def test_metered_gas_equals_gas_stored(gas_law):
+    rig = Rig(120.0, vent_at_s=0.15, tubing_length_mm=200.0, dead_volume_ml=1.0)
+    res = simulate_step(linear_law(), ActuatorLine.from_design(FPN), BEND, rig, duration_s=0.25, gas_law=gas_law)
+    balance = res.info["mass_balance"]
+    assert balance["stored_kg"] > 0
+    assert balance["metered_kg"] == pytest.approx(balance["stored_kg"], rel=1e-6)
+    # the flow series integrates to the metered gas too (trapezoid, 0.5 ms samples)
+    t, flow = res["time_s"], res["flow_slpm"]
+    integral = np.sum((flow[1:] + flow[:-1]) / 2 * np.diff(t)) / 60 * 1000
+    supply_phase = t <= 0.15
+    assert integral == pytest.approx(res["metered_std_ml"][-1], rel=2e-2)
+    assert res["metered_std_ml"][supply_phase][-1] > res["metered_std_ml"][-1] > 0  # venting returned gas
+
+
+@pytest.mark.slow
+def test_step_response_converges_under_time_step_refinement():
+    """SDIRK2 with halved steps against a tight Radau solution: the observed order is 2."""
+    rig, law = Rig(120.0, tubing_length_mm=100.0), linear_law(**SMALL)
+    kwargs = dict(duration_s=0.08, out_step_s=1e-3)
+    ref = simulate_step(law, LINE3, BEND, rig, rtol=1e-9, **kwargs)
+    assert ref.time_to_full_bend_s is not None
+    errors, t_errors = [], []
+    for dt in (2e-4, 1e-4, 5e-5):
+        res = simulate_step(law, LINE3, BEND, rig, method="sdirk2", dt_s=dt, **kwargs)
+        errors.append(np.max(np.abs(res.chamber_pressure_kpa - ref.chamber_pressure_kpa)))
+        t_errors.append(abs(res.time_to_full_bend_s - ref.time_to_full_bend_s))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    t_orders = np.log2(np.array(t_errors[:-1]) / np.array(t_errors[1:]))
+    assert np.all((orders > 1.6) & (orders < 2.6)), orders  # second order
+    assert np.all((t_orders > 1.6) & (t_orders < 2.6)), t_orders
+    assert errors[-1] < 1e-3 and t_errors[-1] < 1e-6  # kPa, s
+
+
+# -- physics of the step ---------------------------------------------------------------
+def test_near_chambers_lead_far_ones_and_all_reach_the_supply():
+    line = ActuatorLine.from_design(FPN)
+    res = simulate_step(ProtocolLaw(), line, SETTLED, Rig(30.0), duration_s=3.0)
+    p = res.chamber_pressure_kpa
+    rising = res["time_s"] < 0.1
+    assert np.all(np.diff(p[rising], axis=1) <= 1e-9)  # ordered from the inlet to the far end
+    assert np.all(np.diff(p, axis=0) >= -1e-9)  # each chamber fills monotonically
+    half = [np.interp(15.0, p[:, i], res["time_s"]) for i in range(line.chambers)]  # half the supply
+    assert np.all(np.diff(half) > 0) and half[-1] - half[0] > 2e-3
+    assert p[-1] == pytest.approx(np.full(line.chambers, 30.0), abs=1e-3)
+    assert res["bend_angle_deg"][-1] == pytest.approx(180.0, abs=0.05)  # the law's 6 deg/kPa at 30 kPa
+
+
+def test_time_to_full_bend_is_none_with_the_reason_below_the_full_bend_pressure():
+    res = simulate_step(linear_law(), LINE3, BEND, Rig(30.0), duration_s=0.2)
+    assert res.time_to_full_bend_s is None
+    assert "quasi-statically" in res.reason and "48.0 kPa" in res.reason
+    res = simulate_step(linear_law(), LINE3, BEND, Rig(100.0, tubing_length_mm=100.0), duration_s=0.6)
+    assert 0 < res.time_to_full_bend_s < 0.6 and res.reason is None
+    i = np.searchsorted(res["time_s"], res.time_to_full_bend_s)
+    assert res["bend_angle_deg"][i - 1] < 360.0 <= res["bend_angle_deg"][i]
+    # the free end meets the fixed end: the contact stop holds the bend while the pressure rises on
+    assert np.max(res["bend_angle_deg"]) < 362.0 and res["pressure_far_kpa"][-1] > res["pressure_far_kpa"][i] + 10
+
+
+def test_adiabatic_filling_is_faster_than_isothermal():
+    rig, law = Rig(100.0, tubing_length_mm=100.0), linear_law(**SMALL)
+    iso = simulate_step(law, LINE3, BEND, rig, duration_s=0.15)
+    adi = simulate_step(law, LINE3, BEND, rig, duration_s=0.15, gas_law="adiabatic")
+    assert adi.time_to_full_bend_s < iso.time_to_full_bend_s
+    assert np.max(adi["gas_temperature_far_k"]) > T_REF_K + 5  # compression heats the gas
+
+
+# -- the two effects ---------------------------------------------------------------------
+def test_dead_volume_slows_the_step_and_keeps_the_final_state():
+    base_rig = Rig(60.0, tubing_length_mm=100.0)
+    dead = with_effects(base_rig, {"dead_volume": 5.0})
+    runs = [simulate_step(linear_law(**SMALL), LINE3, SETTLED, r, duration_s=0.8) for r in (base_rig, dead)]
+    assert runs[1].time_to_full_bend_s > runs[0].time_to_full_bend_s * 1.05
+    for key in ("pressure_kpa", "pressure_far_kpa", "bend_angle_deg", "volume_ml"):
+        assert runs[1][key][-1] == pytest.approx(runs[0][key][-1], rel=1e-4, abs=1e-3)
+    # P-V: the metered gas grows by the dead volume's share, V_d (p / p_std) (T_std / T)
+    extra = runs[1]["metered_std_ml"][-1] - runs[0]["metered_std_ml"][-1]
+    assert extra == pytest.approx(float(dead_volume_pv_offset_ml(60.0, 5.0, medium="air")), rel=1e-3)
+
+
+def test_flow_restriction_stretches_the_pneumatic_response_in_time():
+    from pnmold.pneumatics.network import bench_network
+
+    law = linear_law(**SMALL)
+    rigs = [with_effects(Rig(80.0, tubing_length_mm=100.0), {"flow_restriction": k}) for k in (0.0, 1.0)]
+    base = simulate_network(bench_network(law, LINE3, rigs[0]), 0.05, out_step_s=5e-4, rtol=1e-9)
+    slow = simulate_network(bench_network(law, LINE3, rigs[1]), 0.1, out_step_s=5e-4, rtol=1e-9)
+    assert slow["pressure_pa"][:, ::2] == pytest.approx(base["pressure_pa"], rel=1e-5)  # p_k(2t) = p_0(t)
+    steps = [simulate_step(law, LINE3, BEND, r, duration_s=0.3) for r in rigs]
+    assert steps[1].time_to_full_bend_s > 1.3 * steps[0].time_to_full_bend_s
+    assert np.max(steps[1]["flow_slpm"]) == pytest.approx(np.max(steps[0]["flow_slpm"]) / 2, rel=1e-3)
+
+
+def test_dynamic_effect_entries_fit_the_catalogue():
+    keys = {"name", "parameter", "unit", "default", "bounds", "kinds", "description", "fingerprint"}
+    assert [e["name"] for e in DYNAMIC_EFFECTS] == ["dead_volume", "flow_restriction"]
+    for e in DYNAMIC_EFFECTS:
+        assert keys <= set(e)
+        lo, hi = e["bounds"]
+        assert e["default"] == 0.0 and lo <= e["default"] < hi and "step" in e["kinds"]
+    with pytest.raises(ValueError, match="dead_volume"):
+        with_effects(Rig(100.0), {"dead_volume": -1.0})
+    with pytest.raises(ValueError, match="gravity"):
+        with_effects(Rig(100.0), {"gravity": 1.0})
+    water = dead_volume_pv_offset_ml([0.0, 101.325], 2.0)
+    assert water == pytest.approx([0.0, 1.0])  # a 2 mL bubble halves at one atmosphere gauge
+
+
+# -- laws and the bending mode ---------------------------------------------------------------
+def test_curve_law_is_monotone_and_extrapolates_linearly():
+    law = linear_law()
+    p = np.linspace(-10, 100, 221)
+    assert np.all(np.diff(law.volume_ml(p)) > 0) and np.all(np.diff(law.bend_angle_deg(p)) > 0)
+    assert float(law.volume_ml(100.0)) == pytest.approx(11.0 + 30.0)
+    assert float(law.pressure_for_angle_kpa(720.0)) == pytest.approx(96.0)
+    x, z = law.tip_for_angle_mm(np.array([449.999, 450.0, 450.001]))
+    assert np.all(np.abs(np.diff(x)) < 1e-3) and np.all(np.abs(np.diff(z)) < 1e-3)  # the arc joins the samples
+    with pytest.raises(ValueError, match="volume decreases"):
+        chamber_law_from_curve([0, 1, 2], [1.0, 1.2, 1.1], [0, 1, 2], [1, 1, 1], [0, 0, 0])
+
+
+def test_bending_mode_inertia_and_frequency():
+    j, dj = inertia_shape(np.array([0.0, 2 * np.pi]))
+    assert j[0] == pytest.approx(1 / 20, rel=1e-6) and dj[0] == pytest.approx(0.0, abs=1e-6)
+    assert 0 < j[1] < j[0]  # a curled actuator's tip swings less per radian
+    bend = BendingDynamics.from_design(FPN)
+    dp_dtheta = 5e5  # Pa/rad
+    k = bend.moment_per_pa * dp_dtheta
+    f = bend.natural_frequency_hz(0.0, dp_dtheta)
+    assert f == pytest.approx(math.sqrt(k / (bend.mass_kg * bend.length_m**2 / 20)) / (2 * math.pi))
+    assert bend.mass_kg == pytest.approx(elastomer_volume_ml(FPN) * 1.13e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["fpn", "spn"])
+def test_elastomer_volume_matches_the_cast_actuator(name, built):
+    part = built(name).report["parts"]["actuator"]["volume_mm3"] / 1000
+    assert elastomer_volume_ml(load_design(name)) == pytest.approx(part, rel=5e-3)
+
+
+# -- command line ---------------------------------------------------------------------------
+@pytest.fixture
+def analytic_law(monkeypatch):
+    monkeypatch.setattr("pnmold.pneumatics.law.chamber_law_for", lambda design, progress=None: linear_law())
+
+
+def test_cli_dynamic_writes_json_recording_and_plot(tmp_path, analytic_law):
+    js, rec = tmp_path / "step.json", tmp_path / "step.csv"
+    code = main(["simulate", "fpn", "--dynamic", "--supply-kpa", "150", "--duration-s", "0.3",
+                 "--tubing-length-mm", "200", "--effects", "dead_volume=1", "--json", str(js),
+                 "--recording", str(rec), "--quiet"])
+    assert code == 0
+    doc = json.loads(js.read_text())
+    assert doc["schema"] == "pnmold.simulation/1" and doc["model"] == "dynamic" and doc["reason"] is None
+    assert 0 < doc["time_to_full_bend_s"] < 0.3
+    assert doc["inputs"]["tubing_id_mm"] == pytest.approx(0.79375) and doc["effects"] == {"dead_volume": 1.0}
+    assert len(doc["series"]["time_s"]) == len(doc["steps"]) == 601
+    recording = read_recording(rec)
+    assert recording.kind == "step" and recording.design == "fpn"
+    assert {"time_s", "supply_kpa", "pressure_kpa", "flow_slpm", "bend_angle_deg", "tip_x_mm",
+            "tip_z_mm"} <= set(recording.columns)
+    assert recording["pressure_kpa"] == pytest.approx(doc["series"]["pressure_kpa"], rel=1e-5, abs=1e-3)
+    assert recording["supply_kpa"][-1] == 150.0
+    assert (tmp_path / "step.png").stat().st_size > 10_000
+
+
+def test_cli_dynamic_never_reaching_full_bend_writes_null_and_reason(tmp_path, analytic_law):
+    js = tmp_path / "slow.json"
+    assert main(["simulate", "fpn", "--dynamic", "--supply-kpa", "20", "--duration-s", "0.05", "--json", str(js),
+                 "--plot", str(tmp_path / "p.png"), "--quiet"]) == 0
+    doc = json.loads(js.read_text())
+    assert doc["time_to_full_bend_s"] is None and "quasi-statically" in doc["reason"]
+
+
+@pytest.mark.parametrize(("argv", "option"), [
+    ([], "--supply-kpa"),
+    (["--supply-kpa", "-5"], "--supply-kpa"),
+    (["--supply-kpa", "100", "--tubing-id-mm", "0"], "--tubing-id-mm"),
+    (["--supply-kpa", "100", "--tubing-length-mm", "nan"], "--tubing-length-mm"),
+    (["--supply-kpa", "100", "--valve-orifice-mm", "1", "--valve-sonic-conductance", "0.2"], "--valve-orifice-mm"),
+    (["--supply-kpa", "100", "--valve-critical-ratio", "1.2"], "--valve-critical-ratio"),
+    (["--supply-kpa", "100", "--duration-s", "0"], "--duration-s"),
+    (["--supply-kpa", "100", "--effects", "dead_volume=-1"], "dead_volume"),
+    (["--supply-kpa", "100", "--effects", "gravity=1"], "--effects"),
+], ids=["missing-supply", "negative-supply", "zero-bore", "nan-length", "two-valve-sizes", "critical-ratio",
+        "zero-duration", "effect-bounds", "effect-name"])
+def test_cli_dynamic_bad_options_exit_2_naming_the_option(argv, option, tmp_path, capsys, analytic_law):
+    assert main(["simulate", "fpn", "--dynamic", *argv, "--json", str(tmp_path / "x.json"), "--quiet"]) == 2
+    assert option in capsys.readouterr().err
+    assert not (tmp_path / "x.json").exists()
+
+
+# -- the real fPN ------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_fpn_step_at_345_kpa_from_its_characterisation():
+    pytest.importorskip("pnmold.physics.characterise")
+    from pnmold.pneumatics.law import chamber_law_for
+
+    law = chamber_law_for(FPN)
+    res = simulate_step(law, ActuatorLine.from_design(FPN), BendingDynamics.from_design(FPN), Rig(345.0),
+                        duration_s=0.5)
+    assert res.time_to_full_bend_s is not None and 0.01 < res.time_to_full_bend_s < 0.5
+    assert res.info["full_bend_pressure_kpa"] < 345.0
+    assert slpm_from_kg_s(res.info["mass_balance"]["metered_kg"]) > 0
