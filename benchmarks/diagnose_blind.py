@@ -29,7 +29,7 @@ import subprocess
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from pnmold.design import load_design  # noqa: E402
+from pnmold.errors import SolveError  # noqa: E402
 from pnmold.fsutil import write_json  # noqa: E402
 from pnmold.recording import write_recording  # noqa: E402
 
@@ -52,7 +53,13 @@ MAGNITUDES = {
     "viscoelasticity": (0.15, 0.5),
 }
 IN_FE = ("gravity", "strain_stiffening", "layer_compliance")
-FE_MESH = (3.2, 6.4)  # finer than the characterisation's 3.5/7 mm: the data are higher fidelity
+#: the FE's mesh for concealed data: the characterisation's (3.5/7 mm) keeps 50 FE curves within
+#: the hour on 2 cores; the data are still of higher fidelity than the reduced model that
+#: diagnoses them (a 3-D continuum with the effect inside, against a rod of chamber hinges)
+FE_MESH = (3.5, 7.0)
+#: the ramps' top as a share of the nominal full-bend pressure: below full bend even for the
+#: softest nuisance modulus (0.88), where the FE (no self-contact) would curl through itself
+P_MAX_SHARE = 0.75
 CYCLES = 3
 ROWS_PER_RAMP = 16
 
@@ -93,13 +100,13 @@ def draw_cases(per_effect: int, n_null: int, seed: int, source: str) -> list[Cas
                   else str(rng.choice(["chambers_up", "chambers_down", "horizontal"])))
         extras = {}
         if effect == "self_contact":  # walls touch between 30% and 60% of the ramp's top
-            extras = {"self_contact.gap_scale": _gap_for(design, float(rng.uniform(0.3, 0.6)) * 0.85 * full)}
+            extras = {"self_contact.gap_scale": _gap_for(design, float(rng.uniform(0.3, 0.6)) * P_MAX_SHARE * full)}
         if effect == "viscoelasticity":
             extras = {"viscoelasticity.tau_s": float(np.exp(rng.uniform(np.log(0.5), np.log(10.0))))}
         src = "fe" if source == "auto" and (effect is None or effect in IN_FE) else "rom"
         cases.append(Case(f"case_{i:03d}", name, effect, float(rng.uniform(lo, hi)), extras,
                           float(rng.uniform(0.88, 1.12)), orient, float(rng.uniform(0.5, 4.0)),
-                          float(0.85 * full), float(rng.uniform(4.0, 12.0)), src, int(rng.integers(1 << 30))))
+                          float(P_MAX_SHARE * full), float(rng.uniform(4.0, 12.0)), src, int(rng.integers(1 << 30))))
     return cases
 
 
@@ -259,10 +266,16 @@ def score(cases: list[Case], results: dict[str, dict]) -> dict:
 def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: int) -> dict:
     data, key_dir = out / "cases", out / "key"
     cases = draw_cases(per_effect, n_null, seed, source)
-    for c in cases:
+    for i, c in enumerate(cases):
         folder = data / c.id
-        if not (folder / "pv.csv").is_file():
-            generate(c, folder)
+        for _ in range(4):
+            try:
+                if not (folder / "pv.csv").is_file():
+                    generate(c, folder)
+                break
+            except SolveError as err:  # no equilibrium at this magnitude: draw a smaller one
+                print(f"{c.id}: {err}; {c.effect} {c.value:.3g} -> {0.6 * c.value:.3g}", flush=True)
+                c = cases[i] = replace(c, value=0.6 * c.value)
         write_json(key_dir / f"{c.id}.json", asdict(c))
 
     def one(c: Case):
