@@ -1,0 +1,15 @@
+"""Design sweeps: a sweep file (TOML) -> points -> builds on local processes or a Dask
+cluster -> one SQLite row per point, resumable after any interruption.
+
+Modules: ``spec`` (the sweep file), ``points`` (grid or random points, stable keys),
+``run`` (workers and the coordinator loop), ``store`` (SQLite), ``plot`` (the figure),
+``progress`` (the terminal bar the CLI shows).
+"""
+
+from pnmold.sweep.points import Point, expand_points
+from pnmold.sweep.run import THREAD_ENV, SweepResult, run_point, run_sweep
+from pnmold.sweep.spec import SweepError, SweepSpec, load_sweep
+from pnmold.sweep.store import SweepStore, default_db
+
+__all__ = ["THREAD_ENV", "Point", "SweepError", "SweepResult", "SweepSpec", "SweepStore", "default_db",
+           "expand_points", "load_sweep", "run_point", "run_sweep"]
