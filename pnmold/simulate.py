@@ -1,8 +1,18 @@
 """``pnmold simulate``: the quasi-static response of a design, as JSON and as a recording.
 
-The FE model (``--model fe``) builds the design's CAD, meshes the exported STEP and solves
-the pressure curve (free bending, or blocked force against a plane at the tip). Cycles
-repeat the elastic curve (inflate, then deflate); the FE has no rate or history effects.
+Two models give the same rows (CONTRACTS.md §1, §3):
+
+- ``--model fe`` builds the design's CAD, meshes the exported STEP and solves the pressure
+  curve (free bending, or blocked force against a plane at the tip). The catalogue's
+  effects that the FE carries enter the solve: ``gravity`` (value x g along the
+  orientation), ``strain_stiffening`` (Yeoh C20/C30 added) and ``layer_compliance`` (the
+  paper's E*t in series with the added compliance); cycles repeat the elastic curve.
+- ``--model rom`` runs :class:`pnmold.physics.ReducedModel` (characterised by the FE once,
+  cached) with every catalogued effect, history ones (``mullins``, ``viscoelasticity``)
+  included.
+
+Synthetic lab data: ``noisy_columns`` adds Gaussian noise to a recording's measured
+columns (seeded).
 """
 
 from __future__ import annotations
@@ -20,6 +30,7 @@ from pnmold.errors import UsageError
 
 SCHEMA = "pnmold.simulation/1"
 KINDS = ("bending", "pv", "force")
+_STEP_KEYS = ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml", "max_principal_stretch")
 
 
 @dataclass(frozen=True)
@@ -30,6 +41,8 @@ class SimulationRequest:
     cycles: int = 1
     orientation: str = "chambers_up"
     effects: tuple[tuple[str, float], ...] = ()
+    rate_kpa_per_s: float | None = None
+    mesh_size: tuple[float, float] | None = None  # FE mesh (wall, max) mm; None: the model's default
 
 
 def parse_pressures(text: str) -> tuple[float, ...]:
@@ -48,6 +61,7 @@ def parse_pressures(text: str) -> tuple[float, ...]:
 
 
 def parse_effects(text: str | None) -> tuple[tuple[str, float], ...]:
+    """``NAME=VALUE,NAME.PARAM=VALUE,...`` -> ((name, value), ...) (names checked by the models)."""
     if not text:
         return ()
     out = []
@@ -62,45 +76,80 @@ def parse_effects(text: str | None) -> tuple[tuple[str, float], ...]:
     return tuple(out)
 
 
-def _gravity_orientation(request: SimulationRequest) -> str:
-    effects = dict(request.effects)
-    unknown = set(effects) - {"gravity"}
-    if unknown:
-        raise UsageError(f"--effects: {', '.join(sorted(unknown))} not available in the FE model of this version "
-                         "(available: gravity)")
-    if effects.get("gravity", 1.0) == 0.0:
-        return "none"
-    if effects.get("gravity", 1.0) != 1.0:
-        raise UsageError("--effects: the FE model takes gravity=0 or gravity=1 (Earth's gravity)")
-    return request.orientation
+def _mesh_size(request: SimulationRequest, default=None):
+    from pnmold.mesh import MeshSize
+
+    if request.mesh_size is None:
+        return default or MeshSize()
+    return MeshSize(*request.mesh_size)
 
 
 def simulate_fe(design: Design, request: SimulationRequest) -> dict[str, Any]:
     """Solve with the FE model; return the ``pnmold.simulation/1`` document."""
     from pnmold.cad import export_parts, make_parts
-    from pnmold.fem import solve_blocked_force
-    from pnmold.mesh import mesh_actuator
-    from pnmold.quickfe import gravity_vector, material_of, membrane_of, run_fe
+    from pnmold.fem import solve_bending, solve_blocked_force
+    from pnmold.mesh import MeshSize, mesh_actuator
+    from pnmold.physics.effects import design_for_fe
+    from pnmold.quickfe import gravity_vector, material_of, membrane_of
 
-    orientation = _gravity_orientation(request)
+    solved, g = design_for_fe(design, dict(request.effects))
+    orientation = "none" if g == 0 else request.orientation
+    unit = gravity_vector(solved, orientation)
+    gravity = None if unit is None else tuple(g * v for v in unit)
+    size = _mesh_size(request)
+    if gravity is not None and abs(gravity[1]) > 0 and size.half:
+        size = MeshSize(size.wall_mm, size.max_mm, size.band_mm, half=False)  # out of plane: the whole body
+    targets = [p for p in request.pressures_kpa if p > 0]
     with tempfile.TemporaryDirectory() as tmp:
-        shapes = make_parts(design)
-        export_parts({"actuator": shapes["actuator"]}, Path(tmp))
-        step = Path(tmp) / "actuator.step"
-        targets = [p for p in request.pressures_kpa if p > 0]
-        if request.kind == "force":
-            mesh, _ = mesh_actuator(step, design)
-            sol = solve_blocked_force(mesh, material_of(design), membrane_of(design), pressures_kpa=targets,
-                                      gravity=gravity_vector(design, orientation))
-        else:
-            sol = run_fe(design, step, orientation=orientation, pressures_kpa=targets).solution
+        export_parts({"actuator": make_parts(solved)["actuator"]}, Path(tmp))
+        mesh, _ = mesh_actuator(Path(tmp) / "actuator.step", solved, size)
+    solve = solve_blocked_force if request.kind == "force" else solve_bending
+    sol = solve(mesh, material_of(solved), membrane_of(solved), pressures_kpa=targets, gravity=gravity)
     wanted = set(np.round(request.pressures_kpa, 6))
     inflate = [s.as_dict() for s in sol.steps if round(s.pressure_kpa, 6) in wanted]
-    steps = _cycled(inflate, request.cycles)
+    steps = _with_time(_cycled(inflate, request.cycles), request.rate_kpa_per_s)
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "fe",
             "kind": request.kind, "orientation": orientation, "effects": dict(request.effects),
-            "steps": steps,
-            "full_bend_pressure_kpa": sol.full_bend_pressure_kpa, "reason": sol.reason}
+            "steps": steps, "full_bend_pressure_kpa": sol.full_bend_pressure_kpa, "reason": sol.reason}
+
+
+def simulate_rom(design: Design, request: SimulationRequest, characterisation=None,
+                 progress=None) -> dict[str, Any]:
+    """Run the reduced model (characterising the design first, cached); the same document."""
+    from pnmold.physics import Protocol, ReducedModel, characterise
+    from pnmold.physics.characterise import DEFAULT_SIZE
+    from pnmold.physics.effects import check_effects
+
+    effects = check_effects(dict(request.effects), model="rom")
+    if characterisation is None:
+        characterisation = characterise(design, size=_mesh_size(request, DEFAULT_SIZE), progress=progress)
+    model = ReducedModel.for_design(design, characterisation)
+    protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
+                                       request.rate_kpa_per_s, request.orientation)
+    out = model.run(protocol, effects)
+    keys = [*_STEP_KEYS, *(["force_n"] if request.kind == "force" else [])]
+    steps = [{k: round(float(out[k][i]), 6) for k in keys} for i in range(len(protocol))]
+    if request.cycles > 1:
+        for i, s in enumerate(steps):
+            s.update(cycle=int(protocol.cycle[i]), phase=str(protocol.phase[i]))
+    steps = _with_time(steps, request.rate_kpa_per_s)
+    fb, reason = _full_bend(steps)
+    return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "rom",
+            "kind": request.kind, "orientation": request.orientation, "effects": effects, "steps": steps,
+            "full_bend_pressure_kpa": fb, "reason": reason,
+            "characterisation": {"source": characterisation.source, "mesh": characterisation.mesh,
+                                 "max_pressure_kpa": characterisation.max_pressure_kpa,
+                                 "probe_gravity_g": characterisation.probe_gravity_g}}
+
+
+def _full_bend(steps: list[dict[str, Any]]) -> tuple[float | None, str | None]:
+    rows = [s for s in steps if s.get("phase", "inflate") == "inflate" and s.get("cycle", 1) == 1]
+    for a, b in zip(rows, rows[1:], strict=False):
+        if b["bend_angle_deg"] >= 360.0 > a["bend_angle_deg"]:
+            f = (360.0 - a["bend_angle_deg"]) / (b["bend_angle_deg"] - a["bend_angle_deg"])
+            return round(a["pressure_kpa"] + f * (b["pressure_kpa"] - a["pressure_kpa"]), 6), None
+    last = rows[-1]
+    return None, f"bend angle reached {last['bend_angle_deg']:.1f} deg at {last['pressure_kpa']:.4g} kPa"
 
 
 def _cycled(inflate: list[dict[str, Any]], cycles: int) -> list[dict[str, Any]]:
@@ -109,6 +158,15 @@ def _cycled(inflate: list[dict[str, Any]], cycles: int) -> list[dict[str, Any]]:
         out += [{**s, "cycle": c, "phase": "inflate"} for s in inflate]
         out += [{**s, "cycle": c, "phase": "deflate"} for s in reversed(inflate[:-1])] if cycles > 1 else []
     return out
+
+
+def _with_time(steps: list[dict[str, Any]], rate_kpa_per_s: float | None) -> list[dict[str, Any]]:
+    """Add ``time_s`` (pressure travelled / rate) when a ramp rate is given."""
+    if not rate_kpa_per_s or not steps:
+        return steps
+    p = np.array([s["pressure_kpa"] for s in steps])
+    t = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(p)))]) / rate_kpa_per_s
+    return [{**s, "time_s": round(float(ti), 6)} for s, ti in zip(steps, t, strict=True)]
 
 
 def recording_columns(doc: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -128,4 +186,21 @@ def recording_columns(doc: dict[str, Any]) -> dict[str, np.ndarray]:
     if "cycle" in steps[0]:
         out["cycle"] = np.array([s["cycle"] for s in steps], int)
         out["phase"] = np.array([s["phase"] for s in steps], dtype=object)
+    if "time_s" in steps[0] and doc["kind"] != "force":
+        out["time_s"] = col["time_s"]
+    return out
+
+
+def noisy_columns(columns: dict[str, np.ndarray], *, noise_mm: float = 0.0, noise_ml: float = 0.0,
+                  noise_n: float = 0.0, seed: int | None = None) -> dict[str, np.ndarray]:
+    """Columns with seeded Gaussian noise of the given standard deviations on the measured
+    quantities (tip coordinates in mm, injected volume in mL, force in N); pressures exact."""
+    rng = np.random.default_rng(seed)
+    out = dict(columns)
+    for names, sigma in ((("tip_x_mm", "tip_z_mm"), noise_mm), (("volume_ml",), noise_ml), (("force_n",), noise_n)):
+        if sigma < 0:
+            raise UsageError(f"noise must be >= 0, got {sigma}")
+        for name in names:
+            if sigma and name in out:
+                out[name] = out[name] + rng.normal(0.0, sigma, len(out[name]))
     return out

@@ -122,7 +122,7 @@ def test_simulate_writes_json_and_a_recording(tmp_path):
 
 
 def test_simulate_refuses_what_it_cannot_do(capsys):
-    assert main(["simulate", "fpn", "--model", "rom"]) == 2
+    assert main(["simulate", "fpn", "--kind", "twist"]) == 2
     assert main(["simulate", "fpn", "--pressures", "10:5:1"]) == 2
     assert main(["simulate", "fpn", "--effects", "mullins=0.2"]) == 2
     assert "mullins" in capsys.readouterr().err

@@ -1,0 +1,215 @@
+"""The catalogue of physics effects (CONTRACTS.md §5): one composable term each.
+
+Every effect has one physical parameter whose value 0 switches it off (``gravity`` = 1 is
+Earth's gravity), bounds that are physically plausible, the recording kinds that show it,
+the fingerprint it leaves in data, and how it enters the reduced model (``rom``) and,
+where it can, the FE (``fe``). Further parameters of an effect are given as
+``NAME.PARAM=VALUE`` (``extra``). ``default`` is the value a simulation uses when the
+effect is not named: gravity is on (1 g), every other term off.
+
+Adding an effect is one more ``Effect(...)`` in :data:`CATALOGUE` (the pneumatic terms
+``dead_volume`` and ``flow_restriction`` join from :mod:`pnmold.pneumatics.effects`,
+whose entries are plain dicts of the same fields, in :func:`_pneumatic_entries`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from pnmold.design import Design
+from pnmold.errors import DesignError
+
+Extra = tuple[str, str, float, tuple[float, float]]  # (parameter, unit, default, bounds)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One catalogued term. ``models``: where it is modelled (``rom``, ``fe``, ``dynamic``)."""
+
+    name: str
+    parameter: str
+    unit: str
+    default: float
+    bounds: tuple[float, float]
+    kinds: tuple[str, ...]
+    description: str
+    fingerprint: str
+    extra: tuple[Extra, ...] = ()
+    rom: str = ""
+    fe: str = ""
+    source: str = "assumed"
+    models: tuple[str, ...] = ("rom",)
+
+    def as_json(self) -> dict:
+        return {"name": self.name, "parameter": self.parameter, "unit": self.unit, "default": self.default,
+                "bounds": list(self.bounds), "kinds": list(self.kinds), "description": self.description,
+                "fingerprint": self.fingerprint,
+                "extra": [{"parameter": p, "unit": u, "default": d, "bounds": list(b)} for p, u, d, b in self.extra],
+                "rom": self.rom, "fe": self.fe or None, "source": self.source, "models": list(self.models)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping, models: tuple[str, ...] = ("dynamic",)) -> Effect:
+        extra = d.get("extra") or {}
+        if isinstance(extra, Mapping):
+            extra = [{"parameter": k, **v} for k, v in extra.items()]
+        return cls(d["name"], d["parameter"], d["unit"], float(d["default"]), tuple(d["bounds"]),
+                   tuple(d["kinds"]), d["description"], d.get("fingerprint", ""),
+                   tuple((e["parameter"], e["unit"], float(e["default"]), tuple(e["bounds"])) for e in extra),
+                   d.get("rom", ""), d.get("fe", ""), d.get("source", "assumed"), tuple(d.get("models", models)))
+
+
+SI = "Mosadegh et al. 2014, Supporting Information"
+
+CATALOGUE: tuple[Effect, ...] = (
+    Effect(
+        "gravity", "g", "g", 1.0, (0.0, 2.0), ("bending", "pv", "force"),
+        "self-weight of the actuator (and buoyancy when submerged)",
+        "tip offset at 0 kPa, largest at low pressure and at the free end; chambers_up bends further "
+        "(toward -z) at low pressure and resists curling past 180 deg, chambers_down the opposite; "
+        "no in-plane effect when horizontal; about a tenth when submerged (buoyancy); pv: slightly more "
+        "volume at the same pressure when it helps the bend; force: the weight adds to the blocked force",
+        rom="distributed weight rho g A(x) at each section's centroid (design layout), net of buoyancy "
+            "(1 - rho_water/rho) submerged; out of plane when horizontal; bends the rod through the "
+            "FE-identified hinge compliance",
+        fe="gravity vector value x g along the orientation (-z chambers_up, +z chambers_down, -y horizontal)",
+        source=SI + ": 'Gravitational forces were taken into account'; g = 9.80665 m/s^2",
+        models=("rom", "fe")),
+    Effect(
+        "strain_stiffening", "c20_mpa", "MPa", 0.0, (0.0, 0.1), ("bending", "pv", "force"),
+        "higher-order hyperelastic stiffening the baseline material lacks (added Yeoh C20/C30)",
+        "agreement at low pressure, growing shortfall of bend (and volume) at high pressure: the model "
+        "is too soft near full bend",
+        extra=(("c30_mpa", "MPa", 0.0, (0.0, 0.02)),),
+        rom="the pressure needed for a deformation scales with the Yeoh slope dW/dI1 at a representative "
+            "stretch: p = p_eff r(p_eff), r = W'(C10, C20 + dC20, C30 + dC30) / W'(C10, C20, C30), equibiaxial "
+            "I1 at 1 + 0.12 x the FE's peak strain (fitted to the FE with C20 + 0.05 MPa); the hinge "
+            "compliance is divided by r",
+        fe="material.c20_mpa += value, material.c30_mpa += c30_mpa",
+        source="bounds: Yeoh C20 of silicone fits 0-0.02 MPa (" + SI + ": Elastosil C20 = 0.02 MPa; "
+               "pnmold library fits); up to 5x that assumed",
+        models=("rom", "fe")),
+    Effect(
+        "self_contact", "stiffness_ratio", "1", 0.0, (0.0, 20.0), ("bending", "force"),
+        "neighbouring chamber walls touching at large bend",
+        "a knee: above the contact pressure the bend stalls while the pressure still rises (bend rate "
+        "divided by 1 + value); the hinges stiffen, so gravity and the blocked force act through a stiffer "
+        "actuator; inert for sPN designs (no gap between chambers)",
+        extra=(("gap_scale", "1", 1.0, (0.25, 4.0)),),
+        rom="contact pressure p_c where the inside walls' bulge closes the gap: 2 delta(p) = gap_scale gap_mm + "
+            "theta_c z_mid, delta = 9 V_b / (8 A_wall) with V_b the chamber's volume gain less the wedge its "
+            "rotation opens (FE curve); above p_c the free rotation's increments and the compliance are "
+            "divided by 1 + value",
+        source="assumed (the FE has no contact); wall bulge as a clamped plate's parabolic cap",
+    ),
+    Effect(
+        "layer_compliance", "compliance_mm_per_n", "mm/N", 0.0, (0.0, 1.0), ("bending", "force"),
+        "the strain-limiting layer stretches (finite effective E*t): added compliance 1/(E t) per unit width",
+        "more bend per volume at the same pressure along the same tip path (the FE: +10 %/+6 % bend at "
+        "5/23 kPa for 0.3 mm/N on the fPN, cavity volume within 0.3 %), most at low pressure: a pressure-"
+        "dependent scale on curvature that a modulus change (which moves the volume too) does not make",
+        rom="the bend reads the free law at p_eff x (1 + A B): A = k_r/(k_p + k_r) - (same at value 0), the "
+            "share of the bottom's stretching stiffness lost (k_p = 1/(1/(E t) + value) the paper's, k_r = "
+            "6 C10 x bottom layer the rubber's), B = 0.75/(1 + e/0.2) with e the FE's peak strain (fitted to "
+            "the FE); the hinge compliance grows by the same factor; the volume keeps p_eff",
+        fe="paper.modulus_mpa = 1 / (t (1/(E t) + value)): the membrane's E*t in series with the added compliance",
+        source="bounds: 0 = the paper (E t = 650 N/mm, " + SI + "); 1 mm/N ~ no paper (2 mm of rubber, "
+               "E t ~ 1.3 N/mm); response fitted to the FE (benchmarks/rom.py --fe-effects)",
+        models=("rom", "fe")),
+    Effect(
+        "mullins", "fraction", "1", 0.0, (0.0, 0.5), ("bending", "pv", "force"),
+        "first-cycle stress softening: the first loading differs from later ones",
+        "the first inflation needs (1 + value) times the pressure for the same bend; every later branch "
+        "(deflations, re-inflations to the same peak) repeats the softened curve, which meets the first "
+        "loading at the peak; loading past the previous peak is a first loading again",
+        extra=(("exponent", "1", 2.0, (1.0, 4.0)),),
+        rom="stiffness factor 1 + value on first loading (pressure above the running maximum), "
+            "1 + value (p / p_max)^exponent below it (Ogden-Roxburgh-like, pressure as the damage measure)",
+        source="assumed (silicone rubbers soften by 5-30 % after the first stretch)",
+    ),
+    Effect(
+        "viscoelasticity", "fraction", "1", 0.0, (0.0, 0.6), ("bending", "pv", "force"),
+        "rate-dependent hysteresis between inflation and deflation (one Prony term)",
+        "inflate and deflate branches differ (less bend inflating, more deflating), the loop widens with "
+        "the rate; creep toward the quasi-static state at a hold; nothing without time_s or a rate",
+        extra=(("tau_s", "s", 2.0, (0.05, 100.0)),),
+        rom="standard linear solid on the pressure: p = x + h, dh/dt = g/(1-g) dx/dt - h/tau, the free "
+            "law is evaluated at x (the FE is the relaxed, long-term response); time from time_s or the rate",
+        source="assumed (silicone elastomers: Prony fractions 0.1-0.4, times 0.1-10 s)",
+    ),
+)
+
+
+def _pneumatic_entries() -> tuple[Effect, ...]:
+    try:
+        from pnmold.pneumatics.effects import DYNAMIC_EFFECTS
+    except ImportError:
+        return ()
+    return tuple(Effect.from_dict(d) for d in DYNAMIC_EFFECTS)
+
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in (*CATALOGUE, *_pneumatic_entries())}
+
+
+def catalogue_json() -> list[dict]:
+    """``pnmold effects --json``: every effect with name, parameter, unit, default, bounds, kinds, ..."""
+    return [e.as_json() for e in EFFECTS.values()]
+
+
+def check_effects(effects: Mapping[str, float], model: str | None = None) -> dict[str, float]:
+    """Validated values by key (``NAME`` or ``NAME.PARAM``); DesignError names the effect.
+
+    ``model`` (``rom``, ``fe``): refuse effects that model does not carry."""
+    out = {}
+    for key, value in effects.items():
+        name, _, param = key.partition(".")
+        effect = EFFECTS.get(name)
+        if effect is None:
+            raise DesignError(f"effects.{name}", f"unknown effect; the catalogue has {', '.join(EFFECTS)}")
+        if param:
+            extra = {p: (u, b) for p, u, _, b in effect.extra}
+            if param not in extra:
+                known = ", ".join(f"{name}.{p}" for p in extra) or "none"
+                raise DesignError(f"effects.{key}", f"unknown parameter of {name} (parameters: {known})")
+            unit, (lo, hi) = extra[param]
+        else:
+            unit, (lo, hi) = effect.unit, effect.bounds
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise DesignError(f"effects.{key}", f"needs a number, got {value!r}") from None
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise DesignError(f"effects.{key}", f"{v:g} is outside the plausible bounds [{lo:g}, {hi:g}] {unit}")
+        if model is not None and model not in effect.models:
+            raise DesignError(f"effects.{name}", f"not in the {model.upper()} model (it is in: "
+                              f"{', '.join(effect.models)})")
+        out[key] = v
+    return out
+
+
+def value_of(effects: Mapping[str, float], key: str) -> float:
+    """An effect's (or ``NAME.PARAM``'s) value, or its catalogue default."""
+    if key in effects:
+        return float(effects[key])
+    name, _, param = key.partition(".")
+    effect = EFFECTS[name]
+    if not param:
+        return effect.default
+    return next(d for p, _, d, _ in effect.extra if p == param)
+
+
+def design_for_fe(design: Design, effects: Mapping[str, float]) -> tuple[Design, float]:
+    """The design the FE solves with the material and layer effects in it, and the gravity factor."""
+    values = check_effects(effects, model="fe")
+    c20 = value_of(values, "strain_stiffening")
+    c30 = value_of(values, "strain_stiffening.c30_mpa")
+    if c20 or c30:
+        m = design.material
+        design = design.replace("material", c20_mpa=m.c20_mpa + c20, c30_mpa=m.c30_mpa + c30)
+    compliance = value_of(values, "layer_compliance")
+    if compliance:
+        p = design.paper
+        stiffness = 1.0 / (1.0 / (p.modulus_mpa * p.thickness_mm) + compliance)
+        design = design.replace("paper", modulus_mpa=stiffness / p.thickness_mm)
+    return design, value_of(values, "gravity")

@@ -1,0 +1,228 @@
+"""The planar rod of the reduced model: the bottom face as a chain of hinged edges.
+
+The bottom face's line at y = 0 (the paper side, CONTRACTS.md §2) is a polyline of
+``K`` edges from the clamped end (node 0 at x = 0) to the tip (node K at x = L). Edge
+``e`` makes the angle ``psi_e`` with +x, positive as it turns toward -z (so its
+direction is ``(cos psi, -sin psi)`` in x-z); its length is ``l_e``. The hinge at node
+``k`` is the proximal end of edge ``k``; its rotation is ``psi_k - psi_(k-1)``.
+
+Loads: the weight of the body over each edge (``weight_n`` per g, at ``frac`` of the edge
+and ``height`` above it, both turning with the edge) and a vertical force ``F`` at the
+tip from a rigid plane under it (blocked force). Equilibrium per hinge::
+
+    eta_k = C_k M_k(psi),   psi = psi_free + cumsum(eta)
+
+with ``C_k`` the hinge compliance (rad per N mm) and ``M_k`` the moment about +y of the
+loads distal to node k. Newton's method on all rows at once; the Jacobian is exact:
+dM_k/deta_j = -D_max(j,k), D_k = sum_(e >= k) (q_e - r_k) . f_e (a rotation at node j
+turns every load distal to it about r_j).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pnmold.errors import SolveError
+
+_TOL_RAD = 1e-11
+_MAX_ITERATIONS = 60
+_MAX_STEP_RAD = 0.5
+_MAX_HALVINGS = 6
+
+
+@dataclass(frozen=True, eq=False)
+class RodLoads:
+    """Per edge (K,): weight per g (N), load point as fraction along the edge and height above it (mm)."""
+
+    weight_n: np.ndarray
+    frac: np.ndarray
+    height_mm: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class RodState:
+    """Solved rows: edge angles (R, K), nodes (R, K+1, 2) in (x, z), moments (R, K), tip force (R,)."""
+
+    angle_rad: np.ndarray
+    nodes_mm: np.ndarray
+    moment_n_mm: np.ndarray
+    force_n: np.ndarray
+    iterations: int
+
+
+def node_positions(angle: np.ndarray, length: np.ndarray) -> np.ndarray:
+    """(R, K+1, 2) positions of the nodes, node 0 at the origin."""
+    step = np.stack([length * np.cos(angle), -length * np.sin(angle)], axis=-1)
+    out = np.zeros((angle.shape[0], angle.shape[1] + 1, 2))
+    np.cumsum(step, axis=1, out=out[:, 1:])
+    return out
+
+
+def _revcumsum(a: np.ndarray) -> np.ndarray:
+    return np.cumsum(a[:, ::-1], axis=1)[:, ::-1]
+
+
+def moments(nodes: np.ndarray, angle: np.ndarray, loads: RodLoads, gravity_xz: tuple[float, float],
+            force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Moment about +y at the proximal node of each edge (N mm) and D (see module docstring)."""
+    r0, r1 = nodes[:, :-1], nodes[:, 1:]
+    normal = np.stack([np.sin(angle), np.cos(angle)], axis=-1)
+    q = r0 + loads.frac[None, :, None] * (r1 - r0) + loads.height_mm[None, :, None] * normal
+    f = loads.weight_n[:, None] * np.asarray(gravity_xz, float)[None, :]  # (K, 2)
+    sf = np.cumsum(f[::-1], axis=0)[::-1]  # (K, 2)
+    sqf = _revcumsum(q[..., 1] * f[None, :, 0] - q[..., 0] * f[None, :, 1])
+    sqd = _revcumsum(q[..., 0] * f[None, :, 0] + q[..., 1] * f[None, :, 1])
+    tip = nodes[:, -1]
+    m = sqf - (r0[..., 1] * sf[None, :, 0] - r0[..., 0] * sf[None, :, 1])
+    m -= (tip[:, None, 0] - r0[..., 0]) * force[:, None]
+    d = sqd - (r0[..., 0] * sf[None, :, 0] + r0[..., 1] * sf[None, :, 1])
+    d += (tip[:, None, 1] - r0[..., 1]) * force[:, None]
+    return m, d
+
+
+def solve_rod(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarray, loads: RodLoads,
+              gravity_xz: tuple[float, float], plane_z_mm: float | None = None) -> RodState:
+    """Equilibrium of every row; with ``plane_z_mm``, the tip may not go below that plane."""
+    rows, k = angle_free.shape
+    eta = np.zeros((rows, k))
+    force = np.zeros(rows)
+    loaded = bool(np.any(gravity_xz)) and bool(np.any(loads.weight_n))
+    contact = np.zeros(rows, bool)
+    if plane_z_mm is not None:
+        free = node_positions(angle_free, length)[:, -1, 1]
+        contact = free < plane_z_mm + 1e-12 if not loaded else np.ones(rows, bool)
+    if not loaded and not contact.any():
+        nodes = node_positions(angle_free, length)
+        return RodState(angle_free, nodes, np.zeros((rows, k)), force, 0)
+    its = 0
+    # blocked rows start straight: the blocked shape is near the rest state, far from the free curl
+    eta[contact] = -np.diff(angle_free[contact], axis=1, prepend=0.0)
+    for _ in range(3):  # active set of the contact rows
+        eta, force, its, ok = _equilibrium(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact,
+                                           eta, force)
+        if not ok.all():
+            raise RodError(np.flatnonzero(~ok))
+        release = contact & (force < 0)
+        if plane_z_mm is not None:
+            tip_z = node_positions(angle_free + np.cumsum(eta, axis=1), length)[:, -1, 1]
+            engage = ~contact & (tip_z < plane_z_mm - 1e-9)
+        else:
+            engage = np.zeros(rows, bool)
+        if not (release.any() or engage.any()):
+            break
+        contact = (contact & ~release) | engage
+        force[~contact] = 0.0
+    angle = angle_free + np.cumsum(eta, axis=1)
+    nodes = node_positions(angle, length)
+    m, _ = moments(nodes, angle, loads, gravity_xz if loaded else (0.0, 0.0), force)
+    return RodState(angle, nodes, m, force, its)
+
+
+class RodError(SolveError):
+    """No equilibrium found for some rows (``rows``: their indices)."""
+
+    def __init__(self, rows: np.ndarray):
+        self.rows = rows
+        super().__init__(f"reduced model: no equilibrium of the rod for {len(rows)} row(s) (first: row {rows[0]}) "
+                         "after ramping the weight and starting from the previous row")
+
+
+def _equilibrium(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact, eta0, force0):
+    """Newton on every row; rows that fail are retried with the weight ramped in four stages, then
+    from the previous row's equilibrium (the branch a pressure ramp follows past a limit point)."""
+    args = (angle_free, length, compliance)
+    eta, force, its, ok = _newton(*args, loads, gravity_xz, plane_z_mm, contact, eta0, force0)
+    if ok.all():
+        return eta, force, its, ok
+    bad = ~ok
+    sub = tuple(a[bad] for a in (angle_free, length, compliance))
+    e, f = eta0[bad], force0[bad]
+    for frac in (0.25, 0.5, 0.75, 1.0):
+        g = (gravity_xz[0] * frac, gravity_xz[1] * frac)
+        e, f, _, good = _newton(*sub, loads, g, plane_z_mm, contact[bad], e, f)
+    eta[bad], force[bad], ok[bad] = e, f, good
+    for i in np.flatnonzero(~ok):
+        if i == 0 or not ok[i - 1]:
+            continue
+        one = slice(i, i + 1)
+        e, f, _, good = _newton(*(a[one] for a in args), loads, gravity_xz, plane_z_mm, contact[one],
+                                eta[i - 1:i].copy(), force[i - 1:i].copy())
+        if good[0]:
+            eta[i], force[i], ok[i] = e[0], f[0], True
+    return eta, force, its, ok
+
+
+def structured_solve(compliance: np.ndarray, d: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve (I + diag(C) A) x = rhs, A_kj = D_max(j,k), for (R, K, m) right-hand sides in O(K).
+
+    Row k reads x_k = rhs_k - C_k (D_k S_(k-1) + T_(k-1)) with S the prefix sum of x and
+    T_(k-1) = sum_(j >= k) D_j x_j, so (S_k, T_k, 1) = A_k (S_(k-1), T_(k-1), 1): a prefix
+    product of 3x3 matrices (log2 K doubling steps), started from (0, tau, 1) with tau set
+    by T_(K-1) = 0."""
+    cd = compliance * d
+    l00, l01, l10, l11 = 1.0 - cd, -compliance, cd * d, 1.0 + cd  # (R, K): the linear part
+    b0, b1 = rhs.copy(), -d[..., None] * rhs  # (R, K, m): the affine part
+    k = rhs.shape[1]
+    shift = 1
+    while shift < k:  # Hillis-Steele scan: A_i <- A_i o A_(i - shift)
+        a00, a01, a10, a11 = l00[:, shift:], l01[:, shift:], l10[:, shift:], l11[:, shift:]
+        p00, p01, p10, p11 = l00[:, :-shift], l01[:, :-shift], l10[:, :-shift], l11[:, :-shift]
+        q0, q1 = b0[:, :-shift], b1[:, :-shift]
+        b0[:, shift:], b1[:, shift:] = (b0[:, shift:] + a00[..., None] * q0 + a01[..., None] * q1,
+                                        b1[:, shift:] + a10[..., None] * q0 + a11[..., None] * q1)
+        l00[:, shift:], l01[:, shift:], l10[:, shift:], l11[:, shift:] = (
+            a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11)
+        shift *= 2
+    tau = -b1[:, -1] / l11[:, -1, None]  # (R, m)
+    s = l01[..., None] * tau[:, None, :] + b0
+    return np.diff(s, axis=1, prepend=0.0)
+
+
+def _norm(res, nodes, contact, plane_z_mm):
+    """Per row: the hinge residual (rad) and, in contact, the tip's gap (mm per 100 mm of lever)."""
+    total = np.sum(res * res, axis=1)
+    if plane_z_mm is not None:
+        total += np.where(contact, ((nodes[:, -1, 1] - plane_z_mm) / 100.0) ** 2, 0.0)
+    return np.sqrt(total)
+
+
+def _newton(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact, eta, force):
+    rows, k = angle_free.shape
+    big = np.inf
+
+    def evaluate(eta, force):
+        angle = angle_free + np.cumsum(eta, axis=1)
+        nodes = node_positions(angle, length)
+        m, d = moments(nodes, angle, loads, gravity_xz, force)
+        return nodes, d, eta - compliance * m
+
+    nodes, d, res = evaluate(eta, force)
+    for it in range(1, _MAX_ITERATIONS + 1):
+        if contact.any():
+            x_rel = nodes[:, -1:, 0] - nodes[:, :-1, 0]  # (R, K): tip x minus node x
+            y = structured_solve(compliance, d, np.stack([-res, compliance * x_rel], axis=-1))
+            gap = nodes[:, -1, 1] - plane_z_mm
+            a_y1 = -np.sum(x_rel * y[..., 0], axis=1)
+            a_y2 = -np.sum(x_rel * y[..., 1], axis=1)
+            d_force = np.where(contact, (a_y1 + gap) / np.where(contact, a_y2, 1.0), 0.0)
+            d_eta = y[..., 0] - d_force[:, None] * y[..., 1]
+        else:
+            d_eta = structured_solve(compliance, d, -res[..., None])[..., 0]
+            d_force = np.zeros(rows)
+        big = np.abs(d_eta).max(axis=1, keepdims=True)
+        done = big[:, 0] < _TOL_RAD  # False for NaN: a row that blew up never counts as converged
+        if done.all():
+            return eta + d_eta, force + d_force, it, done
+        scale = np.minimum(1.0, _MAX_STEP_RAD / np.maximum(big, 1e-300))
+        norm0 = _norm(res, nodes, contact, plane_z_mm)
+        for _ in range(_MAX_HALVINGS):  # backtrack rows whose residual grew (the weight's lever turns)
+            trial = eta + scale * d_eta, force + scale[:, 0] * d_force
+            nodes, d, res = evaluate(*trial)
+            worse = _norm(res, nodes, contact, plane_z_mm) > norm0
+            if not worse.any():
+                break
+            scale[worse] /= 2
+        eta, force = trial
+    return eta, force, _MAX_ITERATIONS, np.abs(d_eta).max(axis=1) < _TOL_RAD

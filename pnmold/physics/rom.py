@@ -1,0 +1,264 @@
+"""The reduced model: a planar rod of the bottom face, informed by the FE of the same design.
+
+Per protocol row, in this order (every step vectorised over the rows):
+
+1. **History** (:mod:`.history`): the viscoelastic filter gives the relaxed-equivalent
+   pressure, the Mullins factor the row's first-loading stiffening.
+2. **Material**: the free law is read at ``p_eff``: the pressure divided by
+   ``modulus_scale`` x the Mullins factor, and by the strain-stiffening ratio ``r`` of the
+   Yeoh slopes dW/dI1 (with and without the added C20/C30) at the representative stretch
+   (``p = p_eff r(p_eff)``, solved by bisection).
+3. **Free shape**: each bottom-line edge's angle and length at ``p_eff`` from the FE steps
+   (linear in pressure between steps, the last slope beyond them); self-contact freezes
+   the increments above its contact pressure down to 1/(1 + value).
+4. **Loads** (:mod:`.rod`): weight (gravity x orientation, net of buoyancy submerged) and,
+   for ``force``, a rigid plane at the tip's rest height z = 0 (supplement Fig. S6). The
+   hinge compliance (FE probe) is divided by the same stiffness factors. Layer compliance
+   (the FE's own finding: a softer paper gives more bend per volume along the same tip
+   path, most at low pressure) reads the shape and the compliance at ``p_eff`` x a factor.
+5. **Observables**: tip = the last node; bend angle = last edge's angle plus the FE's
+   end-face offset at ``p_eff``; cavity volume = the FE's at ``p_eff`` plus the work-
+   conjugate change sum_k M_k dh_k/dp (Maxwell-Betti: dV/dM = dtheta/dp); injected volume
+   from the same model's 0 kPa state; largest stretch from the FE at ``p_eff``.
+
+Assumed: the bend lives in the x-z plane (gravity out of plane does nothing), the hinge
+compliance is linear in the moment (checked against 1 g by ``tests/test_rom.py``), the
+pressure-side effects act on the whole actuator alike.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from pnmold.design import Design
+from pnmold.errors import DesignError, SolveError
+from pnmold.physics import effects as fx
+from pnmold.physics.characterise import Characterisation, chamber_bounds_mm, characterise, distinct_steps
+from pnmold.physics.history import mullins_factor, viscoelastic_pressure
+from pnmold.physics.protocol import Protocol
+from pnmold.physics.rod import RodError, RodLoads, solve_rod
+from pnmold.physics.section import rod_loads, slab_flexibility
+
+CALIBRATION = {"modulus_scale": (1.0, (0.2, 5.0))}  # name -> (nominal, bounds)
+#: strain of the rubber that carries the bend, as a fraction of the FE's peak principal strain
+#: (equibiaxial): fitted to the FE with Yeoh C20 + 0.05 MPa (fPN, coarse mesh), whose pressure
+#: for a given bend rose 1, 4 and 8 % at 11, 23 and 34 kPa (``benchmarks/rom.py --fe-effects``);
+#: the peak strain itself (fraction 1) would have predicted 10 times that
+REPRESENTATIVE_STRAIN = 0.12
+#: layer compliance: gain and strain scale of the lost stiffness share (see ``layer_softening``)
+LAYER_SHARE_GAIN, LAYER_STRAIN_SCALE = 0.75, 0.2
+WATER_DENSITY_G_PER_ML = 0.998
+
+
+@dataclass(frozen=True, eq=False)
+class _Tables:
+    """The free law on the FE's pressure grid."""
+
+    p: np.ndarray  # (S,)
+    angle: np.ndarray  # (S, K)
+    length: np.ndarray  # (S, K)
+    compliance: np.ndarray  # (S, K)
+    offset_deg: np.ndarray  # (S,) FE bend angle minus the last edge's angle
+    volume_ml: np.ndarray  # (S,)
+    stretch: np.ndarray  # (S,)
+
+
+def _interp(p: np.ndarray, table: np.ndarray, x: np.ndarray, extrapolate: bool = True) -> np.ndarray:
+    """Piecewise linear in p (rows of ``table``), the end slopes beyond the ends unless clamped."""
+    i = np.clip(np.searchsorted(p, x, side="right") - 1, 0, p.size - 2)
+    t = (x - p[i]) / (p[i + 1] - p[i])
+    if not extrapolate:
+        t = np.clip(t, 0.0, 1.0)
+    if table.ndim == 2:
+        t = t[:, None]
+    return table[i] + t * (table[i + 1] - table[i])
+
+
+def _slope(p: np.ndarray, table: np.ndarray, x: np.ndarray) -> np.ndarray:
+    i = np.clip(np.searchsorted(p, x, side="right") - 1, 0, p.size - 2)
+    return (table[i + 1] - table[i]) / (p[i + 1] - p[i])[:, None]
+
+
+class ReducedModel:
+    """Rod of chamber hinges with the FE's free law and compliance; see the module docstring."""
+
+    def __init__(self, design: Design, characterisation: Characterisation):
+        if len(distinct_steps(characterisation.pressure_kpa)) < 2:
+            raise DesignError("characterisation", "needs at least two FE steps at distinct pressures")
+        self.design, self.characterisation = design, characterisation
+        c = characterisation
+        if c.has_rod:
+            x, angle, length, comp = c.rod_x_mm, c.rod_angle_rad, c.rod_length_mm, c.compliance_rad_per_n_mm
+        else:
+            x, angle, length, comp = _even_rod(design, c)
+        self.x_mm = x
+        self.loads: RodLoads = rod_loads(design, x)
+        offset = c.bend_angle_deg - np.degrees(angle[:, -1])
+        k = distinct_steps(c.pressure_kpa)
+        self.tables = _Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
+                              c.max_principal_stretch[k])
+        self._onset: dict[float, float] = {}
+
+    @classmethod
+    def for_design(cls, design: Design, characterisation: Characterisation | None = None) -> ReducedModel:
+        """The model of ``design``; without a characterisation, :func:`characterise` (cached)."""
+        return cls(design, characterisation if characterisation is not None else characterise(design))
+
+    # -- the terms ----------------------------------------------------------------------------------
+    def contact_pressure_kpa(self, gap_scale: float = 1.0) -> float:
+        """Pressure (on the free law) where neighbouring fPN walls' bulges close the gap; inf if never."""
+        if gap_scale not in self._onset:
+            self._onset[gap_scale] = _contact_onset(self.design, self.characterisation, gap_scale)
+        return self._onset[gap_scale]
+
+    def layer_softening(self, compliance_mm_per_n: float, p_eff: np.ndarray) -> np.ndarray:
+        """Factor (>= 1) on the pressure the bend reads when the layer has an added compliance.
+
+        The paper's share of the bottom's stretching stiffness lost, A = k_r/(k_p + k_r) - (same at
+        0), k_p = 1/(1/(E t) + c) the paper's, k_r = 6 C10 x bottom layer the rubber's (N/mm), times
+        B = 0.75 / (1 + e/0.2), e the FE's peak strain: fitted to the FE (fPN, coarse mesh, c = 0.3
+        and 1 mm/N at 5-23 kPa: 6-24 % more pressure-equivalent bend, the same tip path and volume)."""
+        d = self.design
+        rubber = 6.0 * d.material.c10_mpa * d.bottom_layer.thickness_mm
+        paper = d.paper.modulus_mpa * d.paper.thickness_mm
+        share = rubber / (1.0 / (1.0 / paper + compliance_mm_per_n) + rubber) - rubber / (paper + rubber)
+        strain = np.maximum(_interp(self.tables.p, self.tables.stretch, np.maximum(p_eff, 0.0)) - 1.0, 0.0)
+        return 1.0 + share * LAYER_SHARE_GAIN / (1.0 + strain / LAYER_STRAIN_SCALE)
+
+    def _stiffening(self, p_m: np.ndarray, dc20: float, dc30: float) -> tuple[np.ndarray, np.ndarray]:
+        """p_eff with p_m = p_eff r(p_eff), and r there."""
+        if not (dc20 or dc30):
+            return p_m, np.ones_like(p_m)
+        m = self.design.material
+
+        def ratio(p):
+            peak = np.maximum(_interp(self.tables.p, self.tables.stretch, np.maximum(p, 0.0)), 1.0)
+            lam = 1.0 + REPRESENTATIVE_STRAIN * (peak - 1.0)
+            i1 = 2 * lam ** 2 + lam ** -4 - 3.0
+            base = m.c10_mpa + 2 * m.c20_mpa * i1 + 3 * m.c30_mpa * i1 ** 2
+            return (base + 2 * dc20 * i1 + 3 * dc30 * i1 ** 2) / base
+
+        lo, hi = p_m / ratio(p_m), p_m.copy()
+        for _ in range(48):
+            mid = (lo + hi) / 2
+            above = mid * ratio(mid) > p_m
+            hi, lo = np.where(above, mid, hi), np.where(above, lo, mid)
+        p_eff = np.where(p_m > 0, (lo + hi) / 2, p_m)
+        return p_eff, ratio(p_eff)
+
+    def _gravity_xz(self, orientation: str, g: float) -> tuple[float, float]:
+        if g == 0 or orientation in ("none", "horizontal"):
+            return (0.0, 0.0)
+        if orientation == "chambers_up":
+            return (0.0, -g)
+        if orientation == "chambers_down":
+            return (0.0, g)
+        net = 1.0 - WATER_DENSITY_G_PER_ML / self.design.material.density_g_per_ml
+        return (0.0, -g * net)
+
+    # -- the run ------------------------------------------------------------------------------------
+    def run(self, protocol: Protocol, effects: Mapping[str, float] | None = None,
+            params: Mapping[str, float] | None = None,
+            calibration: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+        """Every protocol row's observables (recording columns of its kind, and more).
+
+        ``effects``: values by name (and ``NAME.PARAM``), unnamed ones at their catalogue
+        default (gravity 1 g, the rest off); ``params``: more ``NAME.PARAM`` values;
+        ``calibration``: nominal parameters (``modulus_scale``, 1 = the design's rubber)."""
+        values = fx.check_effects({**(effects or {}), **(params or {})}, model="rom")
+        scale = _calibration(calibration or {})["modulus_scale"]
+
+        def v(key):
+            return fx.value_of(values, key)
+
+        p = protocol.pressure_kpa
+        x = viscoelastic_pressure(p, protocol.times_s(), v("viscoelasticity"), v("viscoelasticity.tau_s"))
+        stiff = scale * mullins_factor(p, v("mullins"), v("mullins.exponent"))
+        # a last row: the same load case at 0 kPa, the reference of the injected volume
+        p_m = np.append(x / stiff, 0.0)
+        stiff = np.append(stiff, scale)
+        p_eff, ratio = self._stiffening(p_m, v("strain_stiffening"), v("strain_stiffening.c30_mpa"))
+        t = self.tables
+        layer = v("layer_compliance")
+        soft = self.layer_softening(layer, p_eff) if layer > 0 else np.ones_like(p_eff)
+        p_bend = p_eff * soft  # the shape reads the free law further on; the volume does not
+        angle = _interp(t.p, t.angle, p_bend)
+        length = _interp(t.p, t.length, p_bend)
+        comp = _interp(t.p, t.compliance, p_bend, extrapolate=False) * (soft / (stiff * ratio))[:, None]
+        dhinge = np.diff(_slope(t.p, t.angle, p_bend), axis=1, prepend=0.0) * soft[:, None]  # rad per kPa of p_eff
+        k_contact = v("self_contact")
+        if k_contact > 0:
+            pc = self.contact_pressure_kpa(v("self_contact.gap_scale"))
+            over = p_bend > pc
+            if np.isfinite(pc) and over.any():
+                at_pc = _interp(t.p, t.angle, np.full(int(over.sum()), pc))
+                angle[over] = at_pc + (angle[over] - at_pc) / (1.0 + k_contact)
+                comp[over] /= 1.0 + k_contact
+                dhinge[over] /= 1.0 + k_contact
+        gxz = self._gravity_xz(protocol.orientation, v("gravity"))
+        try:
+            state = solve_rod(angle, length, comp, self.loads, gxz, 0.0 if protocol.kind == "force" else None)
+        except RodError as err:
+            at = ", ".join(f"{q:.4g}" for q in np.append(p, 0.0)[err.rows][:5])
+            why = (": past a limit point the blocked tip slides back on the frictionless plane"
+                   if protocol.kind == "force" else "")
+            raise SolveError(f"reduced model: no equilibrium of {self.design.name} at {at} kPa ({protocol.kind}, "
+                             f"{protocol.orientation}, gravity {v('gravity'):g} g){why}") from err
+        tip = state.nodes_mm[:, -1]
+        bend = np.degrees(state.angle_rad[:, -1]) + _interp(t.p, t.offset_deg, p_bend)
+        volume = _interp(t.p, t.volume_ml, p_eff) + np.sum(state.moment_n_mm * dhinge, axis=1) / (stiff * ratio)
+        out = {"pressure_kpa": p.copy(), "tip_x_mm": tip[:-1, 0], "tip_z_mm": tip[:-1, 1],
+               "bend_angle_deg": bend[:-1], "cavity_volume_ml": volume[:-1], "volume_ml": volume[:-1] - volume[-1],
+               "max_principal_stretch": _interp(t.p, t.stretch, p_eff[:-1])}
+        if protocol.kind == "force":
+            out["force_n"] = state.force_n[:-1]
+        return out
+
+
+def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
+    out = {k: nominal for k, (nominal, _) in CALIBRATION.items()}
+    for key, value in calibration.items():
+        if key not in CALIBRATION:
+            raise DesignError(f"calibration.{key}", f"unknown; the reduced model calibrates {', '.join(CALIBRATION)}")
+        lo, hi = CALIBRATION[key][1]
+        if not (lo <= float(value) <= hi):
+            raise DesignError(f"calibration.{key}", f"{value:g} is outside [{lo:g}, {hi:g}]")
+        out[key] = float(value)
+    return out
+
+
+def _even_rod(design: Design, c: Characterisation):
+    """Rod for a characterisation from steps only: the bend spread evenly over the free length."""
+    bounds = chamber_bounds_mm(design)
+    xc, L = bounds[1], design.length_mm
+    n = max(4 * (design.chambers.count - 1), 4)
+    x = np.concatenate([[0.0], np.linspace(xc, L, n + 1)])
+    mid = (x[:-1] + x[1:]) / 2
+    frac = np.clip((mid - xc) / (L - xc), 0.0, None) * (mid > xc)
+    angle = np.radians(c.bend_angle_deg)[:, None] * frac[None, :]
+    length = np.tile(np.diff(x), (len(c.pressure_kpa), 1))
+    comp = slab_flexibility(design, x) * (x[:-1] >= xc - 1e-9)
+    return x, angle, length, np.tile(comp, (len(c.pressure_kpa), 1))
+
+
+def _contact_onset(design: Design, c: Characterisation, gap_scale: float) -> float:
+    """Pressure where 2 x the inside walls' bulge equals the gap opened at mid-height (fPN only)."""
+    if design.gap_mm <= 0:
+        return float("inf")
+    ch = design.chambers
+    n = ch.count
+    z0 = design.top_z0_mm
+    theta = np.radians(c.bend_angle_deg) / max(n - 1, 1)
+    dv = (c.cavity_volume_ml - c.cavity_volume_ml[0]) * 1000.0 / n
+    wedge = theta * ch.width_mm * ((z0 + ch.height_mm) ** 2 - z0 ** 2) / 2
+    bulge = 9.0 * np.maximum(dv - wedge, 0.0) / (8.0 * ch.width_mm * ch.height_mm)
+    margin = 2 * bulge - (gap_scale * design.gap_mm + theta * (z0 + ch.height_mm / 2))
+    hit = np.flatnonzero((margin[1:] >= 0) & (margin[:-1] < 0))
+    if not hit.size:
+        return float("inf")
+    i = hit[0]
+    p = c.pressure_kpa
+    return float(p[i] + (0.0 - margin[i]) / (margin[i + 1] - margin[i]) * (p[i + 1] - p[i]))
