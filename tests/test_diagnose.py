@@ -37,7 +37,7 @@ def test_damaged_recording_is_refused_and_nothing_is_written(name, tmp_path, cap
 # -- a small fixed subset of the blind benchmark (data from the reduced model) -------------
 SUBSET = [  # (id, effect, value, extras, modulus scale, orientation)
     ("null", None, 0.0, {}, 1.08, "chambers_up"),
-    ("gravity", "gravity", 0.8, {}, 0.93, "chambers_down"),
+    ("gravity", "gravity", 0.8, {}, 0.93, "chambers_up"),
     ("mullins", "mullins", 0.2, {}, 1.05, "horizontal"),
     ("visco", "viscoelasticity", 0.3, {"viscoelasticity.tau_s": 2.0}, 0.95, "chambers_up"),
 ]
