@@ -1,6 +1,11 @@
-"""Shared fixtures: every template built once per session (without the FE)."""
+"""Shared fixtures: every template built once per session (without the FE); the fPN's
+stored free-bending FE steps (tests/data, produced as its ``produced_by`` says) and a
+reduced model on them."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import pytest
 
@@ -23,3 +28,19 @@ def built(tmp_path_factory):
         return cache[name]
 
     return get
+
+
+#: the fPN's free-bending FE steps on the coarse mesh (a slow test checks the live FE agrees)
+STEPS = json.loads((Path(__file__).parent / "data" / "fpn-free-coarse-steps.json").read_text())["steps"]
+
+
+@pytest.fixture(scope="module")
+def fpn():
+    return load_design("fpn")
+
+
+@pytest.fixture(scope="module")
+def rom(fpn):
+    from pnmold.physics import ReducedModel, characterisation_from_steps
+
+    return ReducedModel(fpn, characterisation_from_steps(STEPS, fpn))

@@ -12,7 +12,6 @@ direction, which is what these tests assert.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,20 +21,10 @@ from pnmold.design import load_design
 from pnmold.errors import DesignError
 from pnmold.physics import EFFECTS, Protocol, ReducedModel, catalogue_json, characterisation_from_steps
 from pnmold.physics.effects import check_effects, design_for_fe
+from tests.conftest import STEPS
 
-STEPS = json.loads((Path(__file__).parent / "data" / "fpn-free-coarse-steps.json").read_text())["steps"]
 SIX = ("gravity", "strain_stiffening", "self_contact", "layer_compliance", "mullins", "viscoelasticity")
 OFF = {"gravity": 0.0}
-
-
-@pytest.fixture(scope="module")
-def fpn():
-    return load_design("fpn")
-
-
-@pytest.fixture(scope="module")
-def rom(fpn):
-    return ReducedModel(fpn, characterisation_from_steps(STEPS, fpn))
 
 
 def _at(out: dict, key: str, rows) -> np.ndarray:

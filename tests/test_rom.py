@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,19 +21,9 @@ from pnmold.mesh import MeshSize
 from pnmold.physics import Characterisation, Protocol, ReducedModel, characterisation_from_steps, characterise
 from pnmold.physics.rod import RodLoads, solve_rod, structured_solve
 from pnmold.recording import read_recording, write_recording
+from tests.conftest import STEPS
 
-STEPS = json.loads((Path(__file__).parent / "data" / "fpn-free-coarse-steps.json").read_text())["steps"]
 COARSE = MeshSize(3.5, 7.0)
-
-
-@pytest.fixture(scope="module")
-def fpn():
-    return load_design("fpn")
-
-
-@pytest.fixture(scope="module")
-def rom(fpn):
-    return ReducedModel(fpn, characterisation_from_steps(STEPS, fpn))
 
 
 # -- protocol --------------------------------------------------------------------------------------

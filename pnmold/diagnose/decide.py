@@ -190,8 +190,7 @@ def decide(fitter: Fitter, effects: list, seed: int = 0) -> Decision:
     accepted: list[Candidate] = []
     final = base
     if excess_sigma(base.heldout_chi2, base.heldout_z.size) > EXCESS_SIGMA and ranked:
-        top = [c for c in ranked[:3]]
-        bootstrap_stability(fitter, [base] + top, rng)
+        bootstrap_stability(fitter, [base, *ranked[:3]], rng)
         best = ranked[0]
         if _acceptable(best):
             accepted.append(best)

@@ -66,10 +66,6 @@ class Fit:
     def values(self) -> dict[str, float]:
         return {p.key: float(v) for p, v in zip(self.hypothesis.parameters, self.x, strict=True)}
 
-    def split(self) -> tuple[dict[str, float], dict[str, float]]:
-        """(effects, calibration) dictionaries for the forward model."""
-        return split_values(self.hypothesis, self.x)
-
 
 def split_values(h: Hypothesis, x: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
     effects, calib = {}, {}
