@@ -116,14 +116,23 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
 
 def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
     """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
-    from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, bending_figure, fem_report, run_fe, write_field
+    from pnmold.quickfe import (
+        BUILD_MESH,
+        BUILD_OPTIONS,
+        bending_figure,
+        blocked_force_report,
+        fem_report,
+        run_fe,
+        write_field,
+    )
 
     run = run_fe(design, folder / "actuator.step", size=size or BUILD_MESH, options=BUILD_OPTIONS,
                  keep_partial=True)
     bending_figure(design, run, folder / "bending.png")
     write_field(run, folder / "fem_field.npz")
     section = fem_report(run)
-    section["timings_s"] = run.timings_s
+    section["blocked_force"] = blocked_force_report(design, run)
+    section["timings_s"] = {**run.timings_s, "blocked_force": section["blocked_force"].get("seconds")}
     return section
 
 

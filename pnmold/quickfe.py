@@ -19,7 +19,7 @@ import numpy as np
 
 from pnmold.design import Design
 from pnmold.errors import SolveError
-from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, solve_bending
+from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, blocked_force_slope, solve_bending
 from pnmold.fsutil import write_bytes
 from pnmold.mesh import MeshQuality, MeshSize, mesh_actuator
 from pnmold.tetmesh import TetMesh
@@ -125,6 +125,25 @@ def fem_report(run: FeRun) -> dict[str, Any]:
         "solver": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in sol.stats.items()},
         "steps": steps,
     }
+
+
+def blocked_force_report(design: Design, run: FeRun, n_points: int = 9) -> dict[str, Any]:
+    """``fem.blocked_force``: the tip force against a plane under the tip (supplement Fig. S6),
+    to first order in pressure about the rest state on the plane, on the run's mesh and
+    gravity, from 0 kPa to the free curve's last pressure."""
+    t0 = time.perf_counter()
+    try:
+        slope = blocked_force_slope(run.mesh, material_of(design), membrane_of(design),
+                                    gravity=gravity_vector(design, run.orientation))
+    except SolveError as err:
+        return {"reason": f"blocked-force solve failed: {err}", "steps": []}
+    top = run.solution.max_pressure_kpa
+    steps = [{"pressure_kpa": round(float(p), 4), "force_n": round(slope.force_n(p), 6)}
+             for p in np.linspace(0.0, top, n_points)]
+    return {"method": "linearised in pressure about the unpressurised actuator resting on the plane "
+                      "(gravity applied); the nonlinear curve: pnmold simulate --model fe --kind force",
+            "force0_n": round(slope.force0_n, 6), "slope_n_per_kpa": round(slope.slope_n_per_kpa, 8),
+            "steps": steps, "seconds": round(time.perf_counter() - t0, 3)}
 
 
 def boundary_triangles(mesh: TetMesh) -> np.ndarray:

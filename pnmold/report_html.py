@@ -198,7 +198,8 @@ def _blocked_force(fem: dict[str, Any]) -> str:
     series = [([s["pressure_kpa"] for s in steps], [s["force_n"] for s in steps], "blocked tip")]
     return _drawn("the blocked-force curve", lambda: image(
         render.curve_png(series, "pressure (kPa)", "force (N)", "blocked tip force"), "blocked force",
-        f"Largest force {max(s['force_n'] for s in steps):.3g} N (report.json fem.blocked_force)."))
+        f"Largest force {max(s['force_n'] for s in steps):.3g} N (report.json fem.blocked_force"
+        + (f"; {esc(force['method'])}" if force.get("method") else "") + ")."))
 
 
 def _strain(folder: Path, fem: dict[str, Any], pictures: dict[str, bytes | str]) -> str:

@@ -27,6 +27,7 @@ from pnmold.fem import (
     SolveOptions,
     Step,
     Yeoh,
+    blocked_force_slope,
     full_bend_pressure,
     solve_bending,
     solve_blocked_force,
@@ -374,6 +375,20 @@ def test_blocked_force_grows_with_pressure(beam):
     assert all(s.tip_z_mm > -0.05 for s in sol.steps)  # held by the plane
 
 
+def test_linearised_blocked_force_matches_the_nonlinear_curve_at_small_pressure(beam):
+    """The build's blocked force (first order in pressure) against the nonlinear contact solve:
+    the same reaction at rest, and the same slope while the deflection is small."""
+    gravity = (0.0, 0.0, -1.0)
+    lin = blocked_force_slope(beam, gravity=gravity)
+    sol = solve_blocked_force(beam, pressures_kpa=[1.0, 2.0], gravity=gravity)
+    rest, *pressed = sol.steps
+    assert rest.force_n > 0  # the plane carries part of the weight
+    assert lin.force0_n == pytest.approx(rest.force_n, rel=1e-6)
+    assert lin.slope_n_per_kpa > 0
+    for step in pressed:
+        assert lin.force_n(step.pressure_kpa) == pytest.approx(step.force_n, rel=0.02)
+
+
 def test_fem_does_not_import_gmsh_or_cadquery():
     code = "import sys, pnmold.fem; print(sorted({'gmsh', 'cadquery'} & set(sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -413,3 +428,27 @@ def test_stretch_field_and_boundary_of_a_homogeneous_stretch():
     normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     outward = np.einsum("ij,ij->i", normals, p.mean(axis=1) - 0.5)
     assert np.all(outward > 0)  # wound with the outward normal
+
+
+def test_pardiso_reuses_its_analysis_for_the_same_pattern():
+    """A new matrix object with the same sparsity (what every Newton iteration assembles)
+    is only factored numerically; a new pattern is analysed again. Both solve correctly."""
+    import scipy.sparse as sp
+
+    from pnmold.fem.linsolve import Pardiso
+
+    n = 50
+    lap = sp.diags([-np.ones(n - 1), 2.5 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    upper = sp.triu(lap, format="csr")
+    solver = Pardiso()
+    b = np.arange(1.0, n + 1)
+    for scale in (1.0, 3.0):
+        m = sp.csr_matrix((upper.data * scale, upper.indices.copy(), upper.indptr.copy()), shape=(n, n))
+        solver.factor(m)
+        assert np.allclose(scale * (lap @ solver.solve(b)), b)
+    assert (solver.n_analyses, solver.n_factorizations) == (1, 2)
+    diag = sp.csr_matrix(sp.diags(2.0 * np.ones(n)))
+    solver.factor(diag)
+    assert np.allclose(solver.solve(b), b / 2)
+    assert solver.n_analyses == 2
+    solver.release()

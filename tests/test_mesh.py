@@ -76,3 +76,12 @@ def test_finer_size_gives_more_elements(built):
     fine, _ = mesh_actuator(result.out_dir / "actuator.step", result.design, MeshSize(2.0, 5.0).refined(1.5))
     assert fine.n_tets > 1.5 * coarse.n_tets
     assert 2 * fine.volume_mm3() == pytest.approx(2 * coarse.volume_mm3(), rel=1e-6)
+
+
+def test_meshing_the_same_step_twice_gives_the_same_mesh(built, fpn_mesh):
+    """Repeatable meshes make repeatable FE curves and sweep rows (gmsh on one thread)."""
+    design, first, _ = fpn_mesh
+    again, _ = mesh_actuator(built("fpn").out_dir / "actuator.step", design)
+    assert again.n_nodes == first.n_nodes and again.n_tets == first.n_tets
+    assert np.array_equal(again.nodes_mm, first.nodes_mm)
+    assert np.array_equal(again.tets, first.tets)

@@ -15,6 +15,7 @@ Formulation (details in the module docstrings):
 - :mod:`.newton` / :mod:`.linsolve` -- Newton with a guarded line search, adaptive load
   steps with extrapolated predictors; PARDISO LDL^T with the analysis done once.
 - :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
+  :func:`blocked_force_slope` (the blocked force to first order in pressure),
   :class:`Step` and :class:`Solution`.
 
     >>> from pnmold.fem import solve_bending
@@ -26,10 +27,19 @@ from .material import Membrane, Yeoh
 from .model import Load, Model
 from .newton import Newton, NewtonOptions
 from .results import Solution, Step, full_bend_pressure
-from .solver import ELASTOSIL_M4601, PAPER, SolveOptions, solve_bending, solve_blocked_force
+from .solver import (
+                     ELASTOSIL_M4601,
+                     PAPER,
+                     BlockedSlope,
+                     SolveOptions,
+                     blocked_force_slope,
+                     solve_bending,
+                     solve_blocked_force,
+)
 
 __all__ = [
     "ELASTOSIL_M4601",
+    "BlockedSlope",
     "PAPER",
     "Load",
     "Membrane",
@@ -40,6 +50,7 @@ __all__ = [
     "SolveOptions",
     "Step",
     "Yeoh",
+    "blocked_force_slope",
     "full_bend_pressure",
     "solve_bending",
     "solve_blocked_force",

@@ -50,14 +50,16 @@ class Pardiso:
 
     def factor(self, matrix: sp.csr_matrix) -> None:
         """Numerically factor ``matrix`` (upper-triangular CSR, sorted indices)."""
-        same = (self._pattern is not None and self._pattern[0] is matrix.indptr
-                and self._pattern[1] is matrix.indices)
+        # compare contents, not identity: scipy's csr_matrix may hand back new index arrays
+        # for the same pattern, and a needless analysis costs more than the factorisation
+        same = (self._pattern is not None and np.array_equal(self._pattern[0], matrix.indptr)
+                and np.array_equal(self._pattern[1], matrix.indices))
         self._matrix = matrix
         self._solver.set_iparm(12, 0)  # CSR, not transposed
         dummy = np.zeros((matrix.shape[0], 1))
         if not same:
             self._phase(11, dummy)
-            self._pattern = (matrix.indptr, matrix.indices)
+            self._pattern = (matrix.indptr.copy(), matrix.indices.copy())
             self.n_analyses += 1
         self._phase(22, dummy)
         self.n_factorizations += 1

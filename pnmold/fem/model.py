@@ -284,7 +284,7 @@ class Model:
             force = float(-k * pen.sum())
             if want_k:
                 fi = self.free_index[zdofs]
-                sel = (pen < 0) & (fi >= 0)
+                sel = (gap <= 0) & (fi >= 0)  # touching counts as closed: the tip starts on the plane
                 np.add.at(data, self.diag_pos[fi[sel]], k)
         R += Rext
         ext = float(np.linalg.norm(Rext[self.free]))
