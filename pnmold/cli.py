@@ -175,14 +175,14 @@ def cmd_effects(args) -> int:
 def cmd_diagnose(args) -> int:
     from pnmold.design import load_design
     from pnmold.diagnose import diagnose
-    from pnmold.diagnose.model import candidate_effects, read_all, rom_forward
+    from pnmold.diagnose.model import diagnosis_effects, diagnosis_forward, read_all
     from pnmold.diagnose.output import write_json_doc, write_report
     from pnmold.report import design_entry
 
     recordings = read_all(args.recordings)  # every file checked before anything is computed or written
     design = load_design(args.design, args.set)
-    diag = diagnose(design_entry(design), recordings, rom_forward(design, recordings),
-                    candidate_effects(recordings), seed=args.seed)
+    diag = diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
+                    diagnosis_effects(recordings), seed=args.seed)
     if args.json:
         write_json_doc(diag, args.json)
     if args.report:
@@ -373,11 +373,12 @@ def make_parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=cmd_sweep)
 
     p = sub.add_parser("diagnose", help="compare recordings with the model and name the missing physics",
-                       description="Compare lab recordings (CONTRACTS.md §4) with the reduced model: recalibrate "
-                       "the modulus, locate the mismatch, name the missing physics from the catalogue of effects "
-                       "(pnmold effects), fit it and show the held-out improvement; or say nothing is missing.")
+                       description="Compare lab recordings (CONTRACTS.md §4) with the reduced model (step "
+                       "recordings: with the pneumatic step model): recalibrate the modulus, locate the mismatch, "
+                       "name the missing physics from the catalogue of effects (pnmold effects), fit it and show "
+                       "the held-out improvement; or say nothing is missing.")
     _add_design(p)
-    p.add_argument("recordings", nargs="+", metavar="RECORDING.csv", help="recordings (bending, pv, force)")
+    p.add_argument("recordings", nargs="+", metavar="RECORDING.csv", help="recordings (bending, pv, force, step)")
     p.add_argument("--json", metavar="FILE", help="write the diagnosis (schema pnmold.diagnosis/1)")
     p.add_argument("--report", metavar="DIR", help="write report.html with before/after plots into DIR")
     p.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling (default 0)")

@@ -19,7 +19,7 @@ from .locate import locate
 
 SCHEMA = "pnmold.diagnosis/1"
 UNITS = {"tip_x_mm": "mm", "tip_z_mm": "mm", "volume_ml": "mL", "force_n": "N", "pressure_kpa": "kPa",
-         "bend_angle_deg": "deg"}
+         "bend_angle_deg": "deg", "flow_slpm": "SLPM", "pressure_far_kpa": "kPa"}
 
 
 @dataclass(frozen=True, eq=False)

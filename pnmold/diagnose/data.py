@@ -1,7 +1,8 @@
 """Recordings as one standardised data set: observables, noise, branches and blocks.
 
 Every recording contributes its observables (bending: tip x and z; pv: volume; force:
-force; step: chamber pressure and, when recorded, the bend angle). Each observable of each
+force; step: the inlet pressure and, when recorded, the bend angle, the metered flow, the far
+chamber's pressure and the cavity's volume change). Each observable of each
 recording gets a noise level estimated from the data itself, so residuals of different
 units can be pooled as z-scores. Rows are grouped into *branches* (one cycle's inflation
 or deflation of one recording) and branches into short contiguous *blocks*; held-out
@@ -22,7 +23,7 @@ OBSERVABLES = {
     "bending": ("tip_x_mm", "tip_z_mm"),
     "pv": ("volume_ml",),
     "force": ("force_n",),
-    "step": ("pressure_kpa", "bend_angle_deg"),
+    "step": ("pressure_kpa", "bend_angle_deg", "flow_slpm", "pressure_far_kpa", "volume_ml"),
 }
 #: rows per held-out block (at least); a branch of 30 rows gives 5 blocks
 BLOCK_ROWS = 6

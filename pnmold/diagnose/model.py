@@ -1,4 +1,5 @@
-"""The reduced model as the diagnosis's forward model, and reading the user's recordings."""
+"""The diagnosis's forward models (the reduced model for quasi-static recordings, the compiled
+step model of :mod:`.dynamic` for ``step`` recordings) and reading the user's recordings."""
 
 from __future__ import annotations
 
@@ -39,5 +40,70 @@ def rom_forward(design: Design, recordings: Sequence[Recording]) -> Forward:
 
     def forward(effects: dict[str, float], calibration: dict[str, float]) -> list[dict[str, np.ndarray]]:
         return [rom.run(p, {**off, **effects}, None, calibration) for p in protocols]
+
+    return forward
+
+
+def has_step(recordings: Sequence[Recording]) -> bool:
+    return any(r.kind == "step" for r in recordings)
+
+
+def diagnosis_effects(recordings: Sequence[Recording]) -> list:
+    """The candidates of a diagnosis: without a step recording exactly :func:`candidate_effects`
+    (the reduced model's); with one, also the step model's (``dead_volume``,
+    ``flow_restriction``), judged on the step recordings."""
+    if not has_step(recordings):
+        return candidate_effects(recordings)
+    from pnmold.physics.effects import EFFECTS
+
+    quasi = [r for r in recordings if r.kind != "step"]
+    rom = candidate_effects(quasi) if quasi else []
+    dynamic = [e for e in EFFECTS.values() if "dynamic" in e.models and "step" in e.kinds]
+    return rom + [e for e in dynamic if e not in rom]
+
+
+def diagnosis_forward(design: Design, recordings: Sequence[Recording]) -> Forward:
+    """Without a step recording exactly :func:`rom_forward`. With one: step recordings on the
+    compiled step model (effects ``dead_volume``, ``flow_restriction``), the others on the
+    reduced model (its effects); ``modulus_scale`` calibrates both. An effect acts only on
+    the recordings whose model carries it."""
+    if not has_step(recordings):
+        return rom_forward(design, recordings)
+    from pnmold.physics.effects import EFFECTS
+
+    from .dynamic import StepModel, StepProtocol
+
+    steps = [i for i, r in enumerate(recordings) if r.kind == "step"]
+    quasi = [i for i, r in enumerate(recordings) if r.kind != "step"]
+    protocols = [StepProtocol.from_recording(recordings[i]) for i in steps]
+    step_model = StepModel(design)
+    rom = rom_forward(design, [recordings[i] for i in quasi]) if quasi else None
+
+    def model_of(key: str) -> tuple[str, ...]:
+        effect = EFFECTS.get(key.partition(".")[0])
+        return effect.models if effect is not None else ()
+
+    last: dict[str, tuple] = {}  # per model, its last inputs and predictions: a fit varying only the
+    # other model's parameters (a finite-difference step) does not run this one again
+
+    def memo(name: str, key: tuple, run):
+        if name not in last or last[name][0] != key:
+            last[name] = (key, run())
+        return last[name][1]
+
+    def forward(effects: dict[str, float], calibration: dict[str, float]) -> list[dict[str, np.ndarray]]:
+        out: list[dict[str, np.ndarray]] = [{} for _ in recordings]
+        calib = tuple(sorted(calibration.items()))
+        dynamic = {k: v for k, v in effects.items() if "dynamic" in model_of(k)}
+        predicted = memo("step", (tuple(sorted(dynamic.items())), calib),
+                         lambda: [step_model.run(p, dynamic, calibration) for p in protocols])
+        for i, cols in zip(steps, predicted, strict=True):
+            out[i] = cols
+        if rom is not None:
+            static = {k: v for k, v in effects.items() if "rom" in model_of(k)}
+            predicted = memo("rom", (tuple(sorted(static.items())), calib), lambda: rom(static, calibration))
+            for i, cols in zip(quasi, predicted, strict=True):
+                out[i] = cols
+        return out
 
     return forward
