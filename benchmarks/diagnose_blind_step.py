@@ -94,14 +94,6 @@ def _law(name: str):
     return chamber_law_for(load_design(name))
 
 
-def scaled_law(law, scale: float):
-    """The chamber law of a rubber whose constants all scale by ``scale``: pressures scale."""
-    from pnmold.pneumatics.law import chamber_law_from_curve
-
-    return chamber_law_from_curve(law.pressure_kpa * scale, law.volume_ml_samples, law.angle_deg_samples,
-                                  law.tip_x_mm_samples, law.tip_z_mm_samples, law.length_mm)
-
-
 def _limit_kpa(name: str) -> float:
     """The highest pressure the design's FE characterisation holds (full bend, or its last step)."""
     from pnmold.physics.characterise import characterise
@@ -153,7 +145,7 @@ def clean_columns(case: Case) -> dict[str, np.ndarray]:
     effects = {"dead_volume_ml": case.value} if case.effect == "dead_volume" else (
         {"flow_restriction": case.value} if case.effect == "flow_restriction" else {})
     rig = Rig(case.supply_kpa, vent_at_s=case.vent_at_s, **TUBING, **effects)
-    res = simulate_step(scaled_law(_law(case.design), case.modulus_scale), ActuatorLine.from_design(design),
+    res = simulate_step(_law(case.design).scaled(case.modulus_scale), ActuatorLine.from_design(design),
                         BendingDynamics.from_design(design), rig, duration_s=case.duration_s)
     every = round(case.sample_s / SIM_STEP_S)
     return {k: np.asarray(res.series[k][::every], float) for k in LAB_COLUMNS}

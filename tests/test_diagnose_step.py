@@ -14,7 +14,7 @@ from pnmold.cli import main
 from pnmold.design import load_design
 from pnmold.diagnose.dynamic import StepModel, StepProtocol
 from pnmold.errors import RecordingError
-from pnmold.pneumatics import ActuatorLine, BendingDynamics, Rig, chamber_law_from_curve, simulate_step
+from pnmold.pneumatics import ActuatorLine, BendingDynamics, Rig, simulate_step
 from pnmold.recording import Recording
 from tests.test_pneumatics import linear_law
 
@@ -28,11 +28,6 @@ def _recording(t, supply, meta=None, **cols) -> Recording:
     return Recording("rec.csv", "step", columns, dict(meta or {}))
 
 
-def _scaled(law, s):
-    return chamber_law_from_curve(law.pressure_kpa * s, law.volume_ml_samples, law.angle_deg_samples,
-                                  law.tip_x_mm_samples, law.tip_z_mm_samples, law.length_mm)
-
-
 # -- the compiled model against the Radau model ---------------------------------------------
 @pytest.mark.parametrize(("effects", "scale"), [({}, 1.0), ({"dead_volume": 6.0}, 1.15),
                                                 ({"flow_restriction": 2.0}, 0.9)],
@@ -42,7 +37,7 @@ def test_step_model_reproduces_simulate_step(effects, scale):
     law = linear_law()
     rig = Rig(120.0, vent_at_s=0.06, dead_volume_ml=effects.get("dead_volume", 0.0),
               flow_restriction=effects.get("flow_restriction", 0.0))
-    ref = simulate_step(_scaled(law, scale), ActuatorLine.from_design(design), BendingDynamics.from_design(design),
+    ref = simulate_step(law.scaled(scale), ActuatorLine.from_design(design), BendingDynamics.from_design(design),
                         rig, duration_s=0.12)
     cols = {k: ref.series[k][::4] for k in ("time_s", "supply_kpa", *OBSERVED, *EXTRAS)}
     protocol = StepProtocol.from_recording(Recording("sim.csv", "step", cols, {}))

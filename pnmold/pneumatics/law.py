@@ -86,6 +86,12 @@ class CurveLaw:
         object.__setattr__(self, "_tip_x", _Linear(a, self.tip_x_mm_samples))
         object.__setattr__(self, "_tip_z", _Linear(a, self.tip_z_mm_samples))
 
+    def scaled(self, modulus_scale: float) -> CurveLaw:
+        """The law of a rubber whose constants all scale by ``modulus_scale``: the same
+        shapes and volumes at pressures scaled alike (without gravity the FE is scale-free)."""
+        return CurveLaw(self.pressure_kpa * modulus_scale, self.volume_ml_samples, self.angle_deg_samples,
+                        self.tip_x_mm_samples, self.tip_z_mm_samples, self.length_mm)
+
     def volume_ml(self, p_kpa):
         return self._volume(p_kpa)
 
