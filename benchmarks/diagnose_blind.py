@@ -18,6 +18,11 @@ relative to their range.
 
     .venv/bin/python benchmarks/diagnose_blind.py [--per-effect 10] [--null 20] [--seed 1]
         [--out out/blind] [--source auto|rom] [--jobs 2]
+
+An interrupted run resumes: recordings already in ``OUT/cases`` are kept. The FE's noise-free
+columns of each case are kept with the key (``OUT/key/<case>-fe-columns.json``): remove
+``OUT/cases`` to redraw the noise (after a change of the reduced model that sets it) without
+re-running the FE.
 """
 
 from __future__ import annotations
@@ -206,8 +211,11 @@ def _span(cols_by_kind: dict, key: str) -> float:
     return 1.0
 
 
-def generate(case: Case, folder: Path) -> None:
-    """Write the case's recordings (no label) into ``folder``."""
+def generate(case: Case, folder: Path, columns: Path | None = None) -> None:
+    """Write the case's recordings (no label) into ``folder``.
+
+    ``columns``: a JSON file (kept with the key) holding the FE's noise-free columns of the
+    case: read if there, else written, so a re-run redraws only the noise, not the FE."""
     rng = np.random.default_rng(case.seed)
     effects = {case.effect: case.value, **case.extras} if case.effect else {}
     if case.effect:
@@ -218,8 +226,14 @@ def generate(case: Case, folder: Path) -> None:
         noise = {"tip_x_mm": tip, "tip_z_mm": tip,
                  "volume_ml": tip / span * _span({"p": _rom_columns(case, "pv", {}, case.modulus_scale)},
                                                  "volume_ml")}
-    if case.source == "fe":
+    stored = json.loads(columns.read_text()) if columns is not None and columns.is_file() else {}
+    if case.source == "fe" and stored.get("case") == asdict(case):
+        cols = {kind: {k: np.asarray(v) for k, v in d.items()} for kind, d in stored["columns"].items()}
+    elif case.source == "fe":
         cols = _fe_columns(case, effects)
+        if columns is not None:
+            write_json(columns, {"case": asdict(case),
+                                 "columns": {kind: {k: v.tolist() for k, v in d.items()} for kind, d in cols.items()}})
     else:
         cols = {k: _rom_columns(case, k, effects, case.modulus_scale) for k in ("bending", "pv")}
     for kind, names in (("bending", ("tip_x_mm", "tip_z_mm")), ("pv", ("volume_ml",))):
@@ -241,7 +255,7 @@ def _make(c: Case, data: Path, key_dir: Path) -> Case:
     for _ in range(4):
         try:
             if not (folder / "pv.csv").is_file():
-                generate(c, folder)
+                generate(c, folder, key_dir / f"{c.id}-fe-columns.json")
             break
         except SolveError as err:
             if c.source == "fe":  # the FE stalled below the ramp's top: a lower top

@@ -326,3 +326,18 @@ def test_a_sweep_with_fem_stores_the_full_bend_pressure_or_why_not(tmp_path):
     assert json.loads(row["worker_threads"]).get("numba") == 1  # numba loaded after the env was set
     assert "fem_solve" in json.loads(row["timings_s"])
     assert db.with_suffix(".png").stat().st_size > 1000  # one axis with FE: the figure
+
+
+def test_one_coordinator_per_database_and_no_lock_file_left(tmp_path):
+    from pnmold.errors import UsageError
+    from pnmold.sweep.store import SweepStore
+
+    db = tmp_path / "s.sqlite"
+    with SweepStore(db):
+        assert (tmp_path / "s.sqlite.lock").is_file()
+        with pytest.raises(UsageError, match="s.sqlite: another pnmold sweep"):
+            SweepStore(db)
+    assert not (tmp_path / "s.sqlite.lock").exists()
+    with SweepStore(db):  # free again
+        pass
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.endswith(".lock")) == []

@@ -20,8 +20,17 @@ compliance grows about 1.5x toward full bend. Why 0.35 g: the identified complia
 predicts 1 g (the hinge compliances at 0 kPa agree within 3 % between 0.35 g and 1 g on
 the fPN), while the test against 1 g stays a prediction, not a fit.
 
+3. **variants** -- the free run again with one catalogued effect switched on in the FE at a
+   few values (:data:`VARIANTS`): the FE's own response to a compliant strain-limiting layer
+   and to Yeoh strain stiffening, curve by curve. The reduced model reads its
+   ``layer_compliance`` and ``strain_stiffening`` terms from them (bend, cavity volume and
+   the tip's distance from the clamp; interpolated in the effect's intensity), so
+   concealed FE data and the model that diagnoses them leave the same fingerprint; the
+   analytic forms stand in only for a characterisation without variants.
+
 Results are cached as JSON in ``out/.cache/fe/`` (``PNMOLD_CACHE`` overrides the folder),
-keyed by the design digest, the mesh size and the pressure limit.
+keyed by the design digest, the mesh size and the pressure limit. A cached file without
+the variants gains them on first use (the two solves above are not repeated).
 """
 
 from __future__ import annotations
@@ -32,7 +41,7 @@ import os
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -54,6 +63,12 @@ DEFAULT_MESH_MM = (3.5, 7.0)  # wall, max: see DEFAULT_SIZE
 DEFAULT_MAX_PRESSURE_KPA = 150.0
 _CURVES = ("pressure_kpa", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "cavity_volume_ml", "max_principal_stretch")
 _ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm")
+#: effect -> values of its FE variant runs (assumed: inside what the blind benchmark draws,
+#: 0.02-0.3 mm/N and 0.01-0.06 MPa). Two for the layer: the sPN's response to it is not
+#: proportional to the lost stiffness share (its bend change at 0.05 mm/N is half what 0.15
+#: mm/N scaled down predicts), the fPN's and the stiffening's are (within 5-15 %)
+VARIANTS = {"layer_compliance": (0.05, 0.15), "strain_stiffening": (0.04,)}
+VARIANT_FORMAT = 2  # at the free run's pressures; older runs are re-done
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +100,17 @@ class Characterisation:
     probe: dict | None = None
     source: str = "fe"
     timings_s: dict = field(default_factory=dict)
+    variants: dict = field(default_factory=dict)  # "effect=value" -> {"value": v, curves...} (lists, FE)
+
+    def variant_runs(self, effect: str) -> list[dict[str, np.ndarray]]:
+        """The FE variant runs of ``effect`` (arrays at distinct pressures, ``value``), by value."""
+        out = []
+        for key, doc in self.variants.items():
+            if key.partition("=")[0] != effect or len(distinct_steps(doc["pressure_kpa"])) < 2:
+                continue
+            keep = distinct_steps(doc["pressure_kpa"])
+            out.append({**{k: np.asarray(doc[k], float)[keep] for k in _CURVES}, "value": float(doc["value"])})
+        return sorted(out, key=lambda d: d["value"])
 
     @property
     def has_rod(self) -> bool:
@@ -204,14 +230,56 @@ def characterise(design: Design, *, size: MeshSize | None = None,
     if not size.half:
         size = MeshSize(size.wall_mm, size.max_mm, size.band_mm, half=True)
     path = cache_path(design, size, max_pressure_kpa)
+    say = progress or (lambda stage: None)
+    result = None
     if path.is_file():
         try:
-            return Characterisation.from_json(json.loads(path.read_text()))
+            result = Characterisation.from_json(json.loads(path.read_text()))
         except (ValueError, KeyError, TypeError) as err:
             log.warning("ignoring the unreadable cache %s: %s", path, err)
-    result = _run_fe(design, size, max_pressure_kpa, progress or (lambda stage: None))
-    write_json(path, result.to_json())
+    if result is None:
+        result = _run_fe(design, size, max_pressure_kpa, say)
+        write_json(path, result.to_json())
+    missing = [key for key in variant_keys() if result.variants.get(key, {}).get("format") != VARIANT_FORMAT]
+    if missing and result.source == "fe":
+        extra = result.pressure_kpa[-1] * (1.0 + 0.05 * np.arange(1, 6))  # a stiffer variant gets further
+        pressures = [float(p) for p in (*result.pressure_kpa[1:], *extra[extra <= max_pressure_kpa])]
+        variants = {**result.variants, **_run_variants(design, size, pressures, missing, say)}
+        timings = {**result.timings_s, **{f"variant {k}": v.pop("seconds") for k, v in variants.items()
+                                          if "seconds" in v}}
+        result = replace(result, variants=variants, timings_s=timings)
+        write_json(path, result.to_json())
     return result
+
+
+def variant_keys() -> list[str]:
+    """``effect=value`` of every variant run in :data:`VARIANTS`."""
+    return [f"{name}={value:g}" for name, values in VARIANTS.items() for value in values]
+
+
+def _run_variants(design: Design, size: MeshSize, pressures_kpa: Sequence[float], keys: Sequence[str],
+                  say: Callable[[str], None]) -> dict[str, dict]:
+    """Free runs (no gravity) with one effect each at a :data:`VARIANTS` value: the curves at the
+    free run's pressures (and a little beyond), so that variant and nominal meet step by step
+    (a variant's small change is not lost in interpolating the nominal between its steps)."""
+    from pnmold.physics.effects import design_for_fe
+    from pnmold.pipeline import build
+    from pnmold.quickfe import run_fe
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        build(design, Path(tmp) / "build", fem=False, use_slicer=False)
+        for key in keys:
+            name, value = key.partition("=")[0], float(key.partition("=")[2])
+            say(f"{design.name}: free bending with {name} = {value:g} (FE, no gravity)")
+            t0 = time.perf_counter()
+            solved, _ = design_for_fe(design, {name: value})
+            run = run_fe(solved, Path(tmp) / "build" / "actuator.step", size=size, orientation="none",
+                         pressures_kpa=list(pressures_kpa), keep_partial=True)
+            steps = [s.as_dict() for s in run.solution.steps]
+            out[key] = {"format": VARIANT_FORMAT, "value": value, **{k: [float(s[k]) for s in steps] for k in _CURVES},
+                        "reason": run.solution.reason, "seconds": round(time.perf_counter() - t0, 2)}
+    return out
 
 
 def _run_fe(design: Design, size: MeshSize, max_pressure_kpa: float,

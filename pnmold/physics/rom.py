@@ -5,21 +5,22 @@ Per protocol row, in this order (every step vectorised over the rows):
 1. **History** (:mod:`.history`): the viscoelastic filter gives the relaxed-equivalent
    pressure, the Mullins factor the row's first-loading stiffening.
 2. **Material**: the free law is read at ``p_eff``: the pressure divided by
-   ``modulus_scale`` x the Mullins factor, and by the strain-stiffening ratio ``r`` of the
-   Yeoh slopes dW/dI1 (with and without the added C20/C30) at the representative stretch
-   (``p = p_eff r(p_eff)``, solved by bisection).
+   ``modulus_scale`` x the Mullins factor, and by the strain-stiffening factor ``r``
+   (``p = p_eff r(p_eff)``, solved by bisection). ``r`` comes from the FE's own run with
+   stiffer rubber (:mod:`.response`), separately for the shape and for the volume.
 3. **Free shape**: each bottom-line edge's angle and length at ``p_eff`` from the FE steps
    (linear in pressure between steps, the last slope beyond them); self-contact freezes
    the increments above its contact pressure down to 1/(1 + value).
 4. **Loads** (:mod:`.rod`): weight (gravity x orientation, net of buoyancy submerged) and,
    for ``force``, a rigid plane at the tip's rest height z = 0 (supplement Fig. S6). The
    hinge compliance (FE probe) is divided by the same stiffness factors. Layer compliance
-   (the FE's own finding: a softer paper gives more bend per volume along the same tip
-   path, most at low pressure) reads the shape and the compliance at ``p_eff`` x a factor.
+   reads the shape (and the compliance), and separately the volume, at ``p_eff`` x a factor
+   from the FE's run with a stretching layer (:mod:`.response`).
 5. **Observables**: tip = the last node; bend angle = last edge's angle plus the FE's
    end-face offset at ``p_eff``; cavity volume = the FE's at ``p_eff`` plus the work-
-   conjugate change sum_k M_k dh_k/dp (Maxwell-Betti: dV/dM = dtheta/dp); injected volume
-   from the same model's 0 kPa state; largest stretch from the FE at ``p_eff``.
+   conjugate change sum_k M_k dh_k/dp (Maxwell-Betti: dV/dM = dtheta/dp), the free part at
+   the volume's own ``p_eff``; injected volume from the same model's 0 kPa state; largest
+   stretch from the FE at the volume's ``p_eff``.
 
 Assumed: the bend lives in the x-z plane (gravity out of plane does nothing), the hinge
 compliance is linear in the moment (checked against 1 g by ``tests/test_rom.py``), the
@@ -39,6 +40,7 @@ from pnmold.physics import effects as fx
 from pnmold.physics.characterise import Characterisation, chamber_bounds_mm, characterise, distinct_steps
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.protocol import Protocol
+from pnmold.physics.response import responses, solve_stiffened
 from pnmold.physics.rod import RodError, RodLoads, solve_rod
 from pnmold.physics.section import rod_loads, slab_flexibility
 
@@ -101,6 +103,18 @@ class ReducedModel:
         self.tables = _Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
                               c.max_principal_stretch[k])
         self._onset: dict[float, float] = {}
+        self.free_edge = x[:-1] >= chamber_bounds_mm(design)[1] - 1e-6
+        base = {"pressure_kpa": self.tables.p, "bend_angle_deg": c.bend_angle_deg[k],
+                "cavity_volume_ml": self.tables.volume_ml, "tip_x_mm": c.tip_x_mm[k], "tip_z_mm": c.tip_z_mm[k],
+                "clamp_x_mm": chamber_bounds_mm(design)[1]}
+        self.responses = {}  # effect -> {"bend", "volume", "length": Response} from the FE's variant runs
+        layer = c.variant_runs("layer_compliance")
+        if layer:
+            self.responses["layer_compliance"] = responses(
+                base, [(self._layer_share(r["value"]), r) for r in layer], softening=True)
+        stiff = c.variant_runs("strain_stiffening")
+        if stiff:
+            self.responses["strain_stiffening"] = responses(base, [(r["value"], r) for r in stiff], softening=False)
 
     @classmethod
     def for_design(cls, design: Design, characterisation: Characterisation | None = None) -> ReducedModel:
@@ -114,40 +128,63 @@ class ReducedModel:
             self._onset[gap_scale] = _contact_onset(self.design, self.characterisation, gap_scale)
         return self._onset[gap_scale]
 
-    def layer_softening(self, compliance_mm_per_n: float, p_eff: np.ndarray) -> np.ndarray:
-        """Factor (>= 1) on the pressure the bend reads when the layer has an added compliance.
-
-        The paper's share of the bottom's stretching stiffness lost, A = k_r/(k_p + k_r) - (same at
-        0), k_p = 1/(1/(E t) + c) the paper's, k_r = 6 C10 x bottom layer the rubber's (N/mm), times
-        B = 0.75 / (1 + e/0.2), e the FE's peak strain: fitted to the FE (fPN, coarse mesh, c = 0.3
-        and 1 mm/N at 5-23 kPa: 6-24 % more pressure-equivalent bend, the same tip path and volume)."""
+    def _layer_share(self, compliance_mm_per_n: float) -> float:
+        """The paper's share of the bottom's stretching stiffness lost: k_r/(k_p + k_r) - (same at 0),
+        k_p = 1/(1/(E t) + c) the paper's, k_r = 6 C10 x bottom layer the rubber's (N/mm)."""
         d = self.design
         rubber = 6.0 * d.material.c10_mpa * d.bottom_layer.thickness_mm
         paper = d.paper.modulus_mpa * d.paper.thickness_mm
-        share = rubber / (1.0 / (1.0 / paper + compliance_mm_per_n) + rubber) - rubber / (paper + rubber)
-        strain = np.maximum(_interp(self.tables.p, self.tables.stretch, np.maximum(p_eff, 0.0)) - 1.0, 0.0)
-        return 1.0 + share * LAYER_SHARE_GAIN / (1.0 + strain / LAYER_STRAIN_SCALE)
+        return rubber / (1.0 / (1.0 / paper + compliance_mm_per_n) + rubber) - rubber / (paper + rubber)
 
-    def _stiffening(self, p_m: np.ndarray, dc20: float, dc30: float) -> tuple[np.ndarray, np.ndarray]:
-        """p_eff with p_m = p_eff r(p_eff), and r there."""
+    def layer_softening(self, compliance_mm_per_n: float, p_eff: Mapping[str, np.ndarray]
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Factors on the pressure the shape and the volume read with an added layer compliance, and
+        the stretch of the free part.
+
+        From the FE variants (:mod:`.response`), the lost stiffness share as the intensity. Without a
+        variant: the shape's factor 1 + share x B, B = 0.75 / (1 + e/0.2) with e
+        the FE's peak strain (fitted to the FE: fPN, coarse mesh, c = 0.3 and 1 mm/N at 5-23 kPa: 6-24 %
+        more pressure-equivalent bend, the same tip path and volume), the volume's and the stretch 1."""
+        share = self._layer_share(compliance_mm_per_n)
+        response = self.responses.get("layer_compliance")
+        if response is not None:
+            return (response["bend"](p_eff["bend"], share), response["volume"](p_eff["volume"], share),
+                    response["length"](p_eff["bend"], share))
+        strain = np.maximum(_interp(self.tables.p, self.tables.stretch, np.maximum(p_eff["bend"], 0.0)) - 1.0, 0.0)
+        return 1.0 + share * LAYER_SHARE_GAIN / (1.0 + strain / LAYER_STRAIN_SCALE), 1.0, 1.0
+
+    def _stiffening(self, p_m: np.ndarray, dc20: float, dc30: float
+                    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray | float]:
+        """p_eff of the shape and of the volume (``{"bend": .., "volume": ..}``) with p_m = p_eff r(p_eff),
+        the shape's r there, and the stretch of the free part.
+
+        From the FE variants (:mod:`.response`) with intensity dC20 + 1.5 dC30 I1 (MPa): the added Yeoh
+        slope dW/dI1 / (2 I1) at the representative stretch, the variants' dC20 at C30 = 0. Without a
+        variant r is the ratio of the slopes themselves, alike for shape and volume."""
         if not (dc20 or dc30):
-            return p_m, np.ones_like(p_m)
+            return {"bend": p_m, "volume": p_m}, np.ones_like(p_m), 1.0
         m = self.design.material
 
-        def ratio(p):
+        def i1(p):
             peak = np.maximum(_interp(self.tables.p, self.tables.stretch, np.maximum(p, 0.0)), 1.0)
             lam = 1.0 + REPRESENTATIVE_STRAIN * (peak - 1.0)
-            i1 = 2 * lam ** 2 + lam ** -4 - 3.0
-            base = m.c10_mpa + 2 * m.c20_mpa * i1 + 3 * m.c30_mpa * i1 ** 2
-            return (base + 2 * dc20 * i1 + 3 * dc30 * i1 ** 2) / base
+            return 2 * lam ** 2 + lam ** -4 - 3.0
 
-        lo, hi = p_m / ratio(p_m), p_m.copy()
-        for _ in range(48):
-            mid = (lo + hi) / 2
-            above = mid * ratio(mid) > p_m
-            hi, lo = np.where(above, mid, hi), np.where(above, lo, mid)
-        p_eff = np.where(p_m > 0, (lo + hi) / 2, p_m)
-        return p_eff, ratio(p_eff)
+        response = self.responses.get("strain_stiffening")
+        if response is None:
+            def ratio(p):
+                base = m.c10_mpa + 2 * m.c20_mpa * i1(p) + 3 * m.c30_mpa * i1(p) ** 2
+                return 1.0 + (2 * dc20 * i1(p) + 3 * dc30 * i1(p) ** 2) / base
+
+            q = solve_stiffened(p_m, ratio)
+            return {"bend": q, "volume": q}, ratio(q), 1.0
+
+        def intensity(p):
+            return dc20 + 1.5 * dc30 * i1(p)
+
+        q = {key: solve_stiffened(p_m, lambda x, f=response[key]: f(x, intensity(x))) for key in ("bend", "volume")}
+        s = intensity(q["bend"])
+        return q, response["bend"](q["bend"], s), response["length"](q["bend"], s)
 
     def _gravity_xz(self, orientation: str, g: float) -> tuple[float, float]:
         if g == 0 or orientation in ("none", "horizontal"):
@@ -180,13 +217,16 @@ class ReducedModel:
         # a last row: the same load case at 0 kPa, the reference of the injected volume
         p_m = np.append(x / stiff, 0.0)
         stiff = np.append(stiff, scale)
-        p_eff, ratio = self._stiffening(p_m, v("strain_stiffening"), v("strain_stiffening.c30_mpa"))
+        p_eff, ratio, stretch = self._stiffening(p_m, v("strain_stiffening"), v("strain_stiffening.c30_mpa"))
         t = self.tables
         layer = v("layer_compliance")
-        soft = self.layer_softening(layer, p_eff) if layer > 0 else np.ones_like(p_eff)
-        p_bend = p_eff * soft  # the shape reads the free law further on; the volume does not
+        soft, soft_v, layer_stretch = self.layer_softening(layer, p_eff) if layer > 0 else (1.0, 1.0, 1.0)
+        p_bend = p_eff["bend"] * soft  # the shape reads the free law further on
+        p_vol = p_eff["volume"] * soft_v
+        soft = np.broadcast_to(soft, p_bend.shape)
+        stretch = np.broadcast_to(stretch * layer_stretch, p_bend.shape)
         angle = _interp(t.p, t.angle, p_bend)
-        length = _interp(t.p, t.length, p_bend)
+        length = _interp(t.p, t.length, p_bend) * np.where(self.free_edge, stretch[:, None], 1.0)
         comp = _interp(t.p, t.compliance, p_bend, extrapolate=False) * (soft / (stiff * ratio))[:, None]
         dhinge = np.diff(_slope(t.p, t.angle, p_bend), axis=1, prepend=0.0) * soft[:, None]  # rad per kPa of p_eff
         k_contact = v("self_contact")
@@ -209,10 +249,10 @@ class ReducedModel:
                              f"{protocol.orientation}, gravity {v('gravity'):g} g){why}") from err
         tip = state.nodes_mm[:, -1]
         bend = np.degrees(state.angle_rad[:, -1]) + _interp(t.p, t.offset_deg, p_bend)
-        volume = _interp(t.p, t.volume_ml, p_eff) + np.sum(state.moment_n_mm * dhinge, axis=1) / (stiff * ratio)
+        volume = _interp(t.p, t.volume_ml, p_vol) + np.sum(state.moment_n_mm * dhinge, axis=1) / (stiff * ratio)
         out = {"pressure_kpa": p.copy(), "tip_x_mm": tip[:-1, 0], "tip_z_mm": tip[:-1, 1],
                "bend_angle_deg": bend[:-1], "cavity_volume_ml": volume[:-1], "volume_ml": volume[:-1] - volume[-1],
-               "max_principal_stretch": _interp(t.p, t.stretch, p_eff[:-1])}
+               "max_principal_stretch": _interp(t.p, t.stretch, p_vol[:-1])}
         if protocol.kind == "force":
             out["force_n"] = state.force_n[:-1]
         return out

@@ -61,12 +61,8 @@ class SweepStore:
         self.path = Path(path)
         self.fields = tuple(fields)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._lock = open(self.path.with_name(self.path.name + ".lock"), "w")  # noqa: SIM115
-        try:
-            fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            self._lock.close()
-            raise UsageError(f"{self.path}: another pnmold sweep is writing to this database") from err
+        self._lock_path = self.path.with_name(self.path.name + ".lock")
+        self._lock = self._take_lock()
         try:
             self.con = sqlite3.connect(self.path, timeout=30)
             self.con.execute("PRAGMA journal_mode=WAL")
@@ -82,11 +78,29 @@ class SweepStore:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def _take_lock(self):
+        """The lock file, held; a finished sweep removes it, so a lock taken on a file another
+        coordinator has just removed is dropped and taken again on the new one."""
+        while True:
+            lock = open(self._lock_path, "w")  # noqa: SIM115
+            try:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError as err:
+                lock.close()
+                raise UsageError(f"{self.path}: another pnmold sweep is writing to this database") from err
+            try:
+                if os.stat(self._lock_path).st_ino == os.fstat(lock.fileno()).st_ino:
+                    return lock
+            except FileNotFoundError:
+                pass
+            lock.close()
+
     def close(self) -> None:
         if getattr(self, "con", None) is not None:
             self.con.close()
             self.con = None
         if not self._lock.closed:
+            self._lock_path.unlink(missing_ok=True)  # still held: no one else owns this file
             self._lock.close()
 
     def _create(self) -> None:
