@@ -1,14 +1,15 @@
 """The reduced model against the FE, template by template, and its speed.
 
-For every template (or those named): the characterisation (two quick-FE solves on the coarse
-mesh, cached in out/.cache/fe/), then the FE with 1 g chambers up (and, with
-``--orientations``, other orientations) over the same pressure range; prints the worst tip
-distance between the reduced model and the FE over the FE's steps (mm and % of the length),
-where it happens, and the reduced model's CPU time per curve (a 50-row chambers-up ramp with
-gravity, a 50-row ramp without, and a 50-row blocked-force ramp). ``--force`` adds the FE's
-blocked force (supplement Fig. S6) at a few pressures against the reduced model's;
-``--fe-effects strain_stiffening=0.05`` the FE with catalogued effects switched on (the data a
-diagnosis meets) against the reduced model with the same effect.
+For every template (or those named): the characterisation (the quick-FE solves of
+:mod:`pnmold.physics.characterise` on the default mesh, cached in out/.cache/fe/), then the
+FE with 1 g chambers up (and, with ``--orientations``, other orientations) over the same
+pressure range; prints the worst tip distance between the reduced model and the FE over the
+FE's steps (mm and % of the length), where it happens, and the reduced model's CPU time per
+curve (a 50-row chambers-up ramp with gravity, a 50-row ramp without, and a 50-row
+blocked-force ramp). ``--force`` adds the FE's blocked force (supplement Fig. S6) at a few
+pressures against the reduced model's; ``--fe-effects strain_stiffening=0.05`` the FE with
+catalogued effects switched on (the data a diagnosis meets) against the reduced model with
+the same effect.
 
     .venv/bin/python benchmarks/rom.py [TEMPLATE...] [--max-kpa P] [--orientations O,...] [--force]
         [--fe-effects NAME=VALUE,...]

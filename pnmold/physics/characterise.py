@@ -219,11 +219,13 @@ def cache_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path:
 
 def characterise(design: Design, *, size: MeshSize | None = None,
                  max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
-                 progress: Callable[[str], None] | None = None) -> Characterisation:
-    """The design's characterisation: from the cache, else two quick-FE solves (minutes).
+                 progress: Callable[[str], None] | None = None, variants: bool = True) -> Characterisation:
+    """The design's characterisation: from the cache, else quick-FE solves (minutes).
 
     ``size`` defaults to :data:`DEFAULT_SIZE` (3.5/7 mm: the full-bend pressure within 2 %
-    of the build's 2.5/5 mm mesh); the free run stops at full bend or ``max_pressure_kpa``."""
+    of the build's 2.5/5 mm mesh); the free run stops at full bend or ``max_pressure_kpa``.
+    ``variants=False``: without the variant runs (what the rod needs without the layer and
+    stiffening terms, which then take their analytic forms); a later call adds them."""
     from pnmold.mesh import MeshSize
 
     size = size or MeshSize(*DEFAULT_MESH_MM)
@@ -241,7 +243,7 @@ def characterise(design: Design, *, size: MeshSize | None = None,
         result = _run_fe(design, size, max_pressure_kpa, say)
         write_json(path, result.to_json())
     missing = [key for key in variant_keys() if result.variants.get(key, {}).get("format") != VARIANT_FORMAT]
-    if missing and result.source == "fe":
+    if variants and missing and result.source == "fe":
         extra = result.pressure_kpa[-1] * (1.0 + 0.05 * np.arange(1, 6))  # a stiffer variant gets further
         pressures = [float(p) for p in (*result.pressure_kpa[1:], *extra[extra <= max_pressure_kpa])]
         variants = {**result.variants, **_run_variants(design, size, pressures, missing, say)}
