@@ -6,7 +6,7 @@ Per protocol row, in this order (every step vectorised over the rows):
    pressure, the Mullins factor the row's first-loading stiffening.
 2. **Material**: the free law is read at ``p_eff``: the pressure divided by
    ``modulus_scale`` x the Mullins factor, and by the strain-stiffening factor ``r``
-   (``p = p_eff r(p_eff)``, solved by bisection). ``r`` comes from the FE's own run with
+   (``p = p_eff r(p_eff)``, inverted on a fine table). ``r`` comes from the FE's own run with
    stiffer rubber (:mod:`.response`), separately for the shape and for the volume.
 3. **Free shape**: each bottom-line edge's angle and length at ``p_eff`` from the FE steps
    (linear in pressure between steps, the last slope beyond them); self-contact freezes
@@ -142,9 +142,9 @@ class ReducedModel:
         the stretch of the free part.
 
         From the FE variants (:mod:`.response`), the lost stiffness share as the intensity. Without a
-        variant: the shape's factor 1 + share x B, B = 0.75 / (1 + e/0.2) with e
-        the FE's peak strain (fitted to the FE: fPN, coarse mesh, c = 0.3 and 1 mm/N at 5-23 kPa: 6-24 %
-        more pressure-equivalent bend, the same tip path and volume), the volume's and the stretch 1."""
+        variant: the shape's factor 1 + share x B, B = 0.75 / (1 + e/0.2) with e the FE's peak strain
+        (fitted to the FE: fPN, coarse mesh, c = 0.3 and 1 mm/N at 5-23 kPa: 6-24 % more pressure-
+        equivalent bend, the same tip path and volume), the volume's factor and the stretch 1."""
         share = self._layer_share(compliance_mm_per_n)
         response = self.responses.get("layer_compliance")
         if response is not None:
