@@ -203,14 +203,10 @@ WITH_VARIANTS = ("fpn", "spn")
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    """template -> (design, characterisation, actuator.step), FE on the coarse mesh, cached per module."""
-    import os
-
+    """template -> (design, characterisation, actuator.step), FE on the coarse mesh, cached per module
+    (in the session's FE cache of tests/conftest.py)."""
     from pnmold.cad import export_parts, make_parts
 
-    cache = tmp_path_factory.mktemp("fe-cache")
-    old = os.environ.get("PNMOLD_CACHE")
-    os.environ["PNMOLD_CACHE"] = str(cache)
     got = {}
 
     def get(name):
@@ -223,11 +219,7 @@ def live(tmp_path_factory):
             got[name] = (design, c, folder / "actuator.step")
         return got[name]
 
-    yield get
-    if old is None:
-        os.environ.pop("PNMOLD_CACHE", None)
-    else:
-        os.environ["PNMOLD_CACHE"] = old
+    return get
 
 
 @pytest.mark.slow

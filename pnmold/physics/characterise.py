@@ -106,9 +106,9 @@ class Characterisation:
         """The FE variant runs of ``effect`` (arrays at distinct pressures, ``value``), by value."""
         out = []
         for key, doc in self.variants.items():
-            if key.partition("=")[0] != effect or len(distinct_steps(doc["pressure_kpa"])) < 2:
-                continue
             keep = distinct_steps(doc["pressure_kpa"])
+            if key.partition("=")[0] != effect or keep.size < 2:
+                continue
             out.append({**{k: np.asarray(doc[k], float)[keep] for k in _CURVES}, "value": float(doc["value"])})
         return sorted(out, key=lambda d: d["value"])
 

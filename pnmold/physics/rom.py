@@ -103,10 +103,11 @@ class ReducedModel:
         self.tables = _Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
                               c.max_principal_stretch[k])
         self._onset: dict[float, float] = {}
-        self.free_edge = x[:-1] >= chamber_bounds_mm(design)[1] - 1e-6
+        clamp_x = chamber_bounds_mm(design)[1]
+        self.free_edge = x[:-1] >= clamp_x - 1e-6
         base = {"pressure_kpa": self.tables.p, "bend_angle_deg": c.bend_angle_deg[k],
                 "cavity_volume_ml": self.tables.volume_ml, "tip_x_mm": c.tip_x_mm[k], "tip_z_mm": c.tip_z_mm[k],
-                "clamp_x_mm": chamber_bounds_mm(design)[1]}
+                "clamp_x_mm": clamp_x}
         self.responses = {}  # effect -> {"bend", "volume", "length": Response} from the FE's variant runs
         layer = c.variant_runs("layer_compliance")
         if layer:
