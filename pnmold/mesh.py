@@ -16,6 +16,10 @@ x = L, ``symmetry`` on y = 0. No gmsh state leaves this module.
 from __future__ import annotations
 
 import logging
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -181,15 +185,32 @@ def _size_field(design: Design, size: MeshSize) -> None:
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
 
 
+@contextmanager
+def gmsh_session() -> Iterator[None]:
+    """gmsh initialised, quiet, and finalised on leaving.
+
+    ``gmsh.initialize`` resets SIGPIPE to its default action (kill the process), undoing
+    Python's SIG_IGN; a later write to a pipe whose reader has died -- a sweep's process
+    pool after a worker crashed -- then killed the whole process (exit 141) instead of
+    raising BrokenPipeError. Python's disposition is put back at once."""
+    before = signal.getsignal(signal.SIGPIPE)
+    gmsh.initialize(interruptible=False)
+    if threading.current_thread() is threading.main_thread() and before is not None:
+        signal.signal(signal.SIGPIPE, before)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        yield
+    finally:
+        gmsh.finalize()
+
+
 def mesh_actuator(step: str | Path, design: Design, size: MeshSize | None = None) -> tuple[TetMesh, MeshQuality]:
     """Tetrahedral mesh of the actuator STEP with named boundaries, and its quality."""
     size = size or MeshSize()
     step = Path(step)
     if not step.is_file():
         raise MeshingError(f"{step}: no such STEP file")
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
+    with gmsh_session():
         # one thread: HXT with two gave a different mesh on every run (2086-2088 nodes on the
         # fPN), so FE results and sweep rows were not repeatable; one thread is repeatable
         # bit for bit and no slower at this size (about 1 s)
@@ -211,8 +232,6 @@ def mesh_actuator(step: str | Path, design: Design, size: MeshSize | None = None
             raise MeshingError(f"{step}: expected linear tetrahedra, got element types {list(etypes)}")
         gamma = np.asarray(gmsh.model.mesh.getElementQualities(etags[0], "gamma"))
         del volumes
-    finally:
-        gmsh.finalize()
     index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
     index[tags] = np.arange(len(tags))
     nodes = np.asarray(coords, float).reshape(-1, 3)

@@ -9,6 +9,7 @@ from pnmold.cad import PART_NAMES
 from pnmold.checks import solids as S
 from pnmold.checks.mesh_checks import surface_pieces
 from pnmold.design import load_design
+from pnmold.mesh import gmsh_session
 from pnmold.stlio import load_stl
 from tests.closed_form import cavity_mm3, part_volumes_mm3
 from tests.conftest import TEMPLATES
@@ -38,9 +39,7 @@ def test_every_stl_is_a_closed_consistently_wound_solid(built, template):
 @pytest.mark.parametrize("template", TEMPLATES)
 def test_step_reimports_in_gmsh_with_the_stl_volume(built, template):
     out = built(template).out_dir
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
+    with gmsh_session():
         for name in PART_NAMES:
             gmsh.clear()
             entities = gmsh.model.occ.importShapes(str(out / f"{name}.step"))
@@ -48,8 +47,6 @@ def test_step_reimports_in_gmsh_with_the_stl_volume(built, template):
             step_volume = sum(gmsh.model.occ.getMass(d, t) for d, t in entities if d == 3)
             stl_volume = load_stl(out / f"{name}.stl").volume
             assert stl_volume == pytest.approx(step_volume, rel=5e-3), name
-    finally:
-        gmsh.finalize()
 
 
 def _solids(out, names):

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import signal
+from pathlib import Path
+
 import gmsh
 import numpy as np
 import pytest
 
-from pnmold.mesh import MeshSize, boundary_facets, mesh_actuator
+from pnmold.mesh import MeshSize, boundary_facets, gmsh_session, mesh_actuator
 from pnmold.tetmesh import CAVITY, CLAMP, FREE_END, STRAIN_LIMITING_LAYER, SYMMETRY
 from tests.closed_form import cavity_mm3, part_volumes_mm3
 
@@ -68,6 +71,22 @@ def test_named_boundaries_lie_where_the_supplement_puts_them(fpn_mesh):
 
 def test_no_gmsh_state_is_left(fpn_mesh):
     assert not gmsh.isInitialized()
+
+
+def _sigpipe_ignored() -> bool:
+    """The kernel's view (Python's signal.getsignal only knows what Python itself set)."""
+    line = next(x for x in Path("/proc/self/status").read_text().splitlines() if x.startswith("SigIgn:"))
+    return bool(int(line.split()[1], 16) & (1 << (signal.SIGPIPE - 1)))
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads the signal mask from Linux /proc")
+def test_meshing_leaves_sigpipe_ignored_as_python_set_it(fpn_mesh):
+    """gmsh.initialize resets SIGPIPE to 'kill'; after that, a sweep coordinator writing to a
+    crashed worker's pipe died with exit 141 instead of seeing BrokenPipeError."""
+    assert _sigpipe_ignored()
+    with gmsh_session():
+        assert _sigpipe_ignored()
+    assert _sigpipe_ignored()
 
 
 def test_finer_size_gives_more_elements(built):

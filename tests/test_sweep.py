@@ -254,6 +254,10 @@ def crashing_worker(point, base, run, build_dir=None):
 
 
 def test_a_point_that_kills_its_worker_is_recorded_as_failed_and_the_rest_complete(tmp_path):
+    from pnmold.mesh import gmsh_session
+
+    with gmsh_session():  # as after an in-process FE run: gmsh had left SIGPIPE fatal (exit 141 here)
+        pass
     spec = load_sweep(write(tmp_path, '[sweep]\nbase = "fpn"\n[axes]\nchambers.count = [3, 4, 5, 6]\n'))
     result = run_sweep(spec, tmp_path / "crash.sqlite", workers=2, worker=crashing_worker)
     status = {r["chambers.count"]: r["status"] for r in result.rows}
