@@ -284,6 +284,40 @@ def test_a_build_that_raises_is_a_failed_row_with_its_message(monkeypatch):
     assert row["design_digest"] and row["chambers.count"] == 7 and row["finished_at"] >= row["started_at"]
 
 
+
+def test_a_point_run_where_numba_threads_already_run_leaves_numba_working(tmp_path, monkeypatch):
+    """run_point in a process that has run parallel numba code (the FE's kernels), as a Dask
+    worker or a test process does: the point runs on one numba thread, and numba still compiles
+    (setting NUMBA_NUM_THREADS under running threads made its next compile raise)."""
+    import numba
+    import numpy as np
+
+    from pnmold.design import load_design
+    from pnmold.sweep.run import run_point
+
+    for key in THREAD_ENV:  # run_point sets these for the process; put them back afterwards
+        monkeypatch.setenv(key, os.environ[key]) if key in os.environ else monkeypatch.delenv(key, raising=False)
+
+    @numba.njit(parallel=True)
+    def total(values):
+        acc = 0.0
+        for i in numba.prange(values.size):
+            acc += values[i]
+        return acc
+
+    threads = numba.get_num_threads()
+    try:
+        assert total(np.ones(64)) == 64.0  # numba's threads are running now
+        spec = load_sweep(write(tmp_path, SMALL))
+        point = next(p for p in expand_points(spec) if p.as_dict()["chambers.height_mm"] == 1.0)
+        row = run_point(point, load_design("fpn"), spec.run)["row"]
+        assert row["status"] == "refused" and row["worker_threads"]["numba"] == 1
+        assert numba.get_num_threads() == 1
+        assert numba.njit(lambda x: x + 1)(1) == 2  # a fresh compile
+    finally:
+        numba.set_num_threads(threads)
+
+
 def _report(full_bend_kpa, failed=()):
     steps = [{"pressure_kpa": p, "max_principal_stretch": 1.0 + p / 100} for p in (0.0, 40.0, 80.0, 95.0)]
     checks = [{"id": c, "passed": False} for c in failed] + [{"id": "mesh.watertight.actuator", "passed": True}]

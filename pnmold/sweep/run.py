@@ -62,10 +62,21 @@ def _init_local_worker(parent_pid: int) -> None:
     threading.Thread(target=watch, name="pnmold-parent-watch", daemon=True).start()
 
 
+def _one_thread() -> None:
+    """One thread per numerics library in this process, for workers not started by pnmold.
+    The environment counts only for libraries not yet loaded; numba re-reads it at every
+    compile and fails (RuntimeError) when NUMBA_NUM_THREADS changed after its threads
+    started, so once numba is loaded its own run-time setting is used instead."""
+    numba = sys.modules.get("numba")
+    os.environ.update({k: v for k, v in THREAD_ENV.items() if numba is None or k != "NUMBA_NUM_THREADS"})
+    if numba is not None:
+        numba.set_num_threads(1)
+
+
 def _threads() -> dict[str, Any]:
     found: dict[str, Any] = {k: os.environ.get(k) for k in THREAD_ENV}
     if "numba" in sys.modules:
-        found["numba"] = sys.modules["numba"].config.NUMBA_NUM_THREADS
+        found["numba"] = sys.modules["numba"].get_num_threads()
     return found
 
 
@@ -83,7 +94,7 @@ def apply_values(base: Design, values: tuple[tuple[str, Any], ...]) -> Design:
 def run_point(point: Point, base: Design, run: RunOptions, build_dir: str | None = None) -> dict[str, Any]:
     """Build one point; never raises for a bad design or a failed build: the returned
     ``{"row": ..., "report": ...}`` says what happened (status ok, refused, failed, check_failed)."""
-    os.environ.update(THREAD_ENV)  # for workers not started by pnmold, before numerics load
+    _one_thread()
     started, cpu0 = time.time(), time.process_time()
     row: dict[str, Any] = {"key": point.key, "overrides": point.as_dict(), **point.as_dict(),
                            "fem": run.fem, "mesh_wall_mm": run.wall_mm, "mesh_max_mm": run.max_mm,
