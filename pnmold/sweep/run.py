@@ -49,21 +49,8 @@ def default_workers() -> int:
 
 
 # -- the worker side ----------------------------------------------------------------------
-def _init_local_worker(parent_pid: int) -> None:
-    """Pool initializer: single-threaded numerics, and exit when the coordinator is gone
-    (a SIGKILLed coordinator must not leave workers computing for nobody)."""
-    os.environ.update(THREAD_ENV)
-
-    def watch() -> None:
-        while os.getppid() == parent_pid:
-            time.sleep(1.0)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="pnmold-parent-watch", daemon=True).start()
-
-
 def _one_thread() -> None:
-    """One thread per numerics library in this process, for workers not started by pnmold.
+    """One thread per numerics library in this process (pool workers, and workers pnmold did not start).
     The environment counts only for libraries not yet loaded; numba re-reads it at every
     compile and fails (RuntimeError) when NUMBA_NUM_THREADS changed after its threads
     started, so once numba is loaded its own run-time setting is used instead."""
@@ -71,6 +58,19 @@ def _one_thread() -> None:
     os.environ.update({k: v for k, v in THREAD_ENV.items() if numba is None or k != "NUMBA_NUM_THREADS"})
     if numba is not None:
         numba.set_num_threads(1)
+
+
+def _init_local_worker(parent_pid: int) -> None:
+    """Pool initializer: single-threaded numerics, and exit when the coordinator is gone
+    (a SIGKILLed coordinator must not leave workers computing for nobody)."""
+    _one_thread()
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="pnmold-parent-watch", daemon=True).start()
 
 
 def _threads() -> dict[str, Any]:
