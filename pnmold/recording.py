@@ -116,20 +116,25 @@ def _check_metadata(meta: dict[str, str], path: str, columns: list[str]) -> str:
     return kind
 
 
-def _cell(text: str, path: str, line: int, name: str) -> float | str:
+def _column(header: list[str], name: str) -> str:
+    """A column as an error names it: its position counted from 1 and its name."""
+    return f"{header.index(name) + 1} ({name})"
+
+
+def _cell(text: str, path: str, line: int, name: str, column: str) -> float | str:
     if name in _TEXT_COLUMNS:
         value = text.strip().lower()
         if value not in PHASES:
-            raise RecordingError(path, line, f"phase must be inflate or deflate, got {text!r}", column=name)
+            raise RecordingError(path, line, f"phase must be inflate or deflate, got {text!r}", column=column)
         return value
     try:
         value = float(text)
     except ValueError:
-        raise RecordingError(path, line, f"not a number: {text!r}", column=name) from None
+        raise RecordingError(path, line, f"not a number: {text!r}", column=column) from None
     if not math.isfinite(value):
-        raise RecordingError(path, line, f"not a finite number: {text!r}", column=name)
+        raise RecordingError(path, line, f"not a finite number: {text!r}", column=column)
     if name == "cycle" and (value < 1 or not value.is_integer()):
-        raise RecordingError(path, line, f"cycle counts 1, 2, 3...: got {text!r}", column=name)
+        raise RecordingError(path, line, f"cycle counts 1, 2, 3...: got {text!r}", column=column)
     return value
 
 
@@ -154,11 +159,12 @@ def read_recording(path: str | Path) -> Recording:
     for i, name in enumerate(header, 1):
         if not name:
             raise RecordingError(p, header_line, "empty column name", column=i)
-        if header.count(name) > 1:
-            raise RecordingError(p, header_line, "column appears twice", column=name)
+        if name in header[:i - 1]:
+            raise RecordingError(p, header_line, f"column appears twice (first as column {header.index(name) + 1})",
+                                 column=f"{i} ({name})")
         problem = _unit_problem(name)
         if problem:
-            raise RecordingError(p, header_line, problem, column=name)
+            raise RecordingError(p, header_line, problem, column=f"{i} ({name})")
     kind = _check_metadata(meta, p, header)
     required, optional = KINDS[kind]
     missing = [c for c in required if c not in header]
@@ -172,11 +178,11 @@ def read_recording(path: str | Path) -> Recording:
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
-            where = header[len(row)] if len(row) < len(header) else len(header) + 1
+            where = _column(header, header[len(row)]) if len(row) < len(header) else len(header) + 1
             raise RecordingError(p, line, f"{len(row)} fields, the header has {len(header)}", column=where)
         for name, cell in zip(header, row, strict=True):
             if name in data:
-                data[name].append(_cell(cell, p, line, name))
+                data[name].append(_cell(cell, p, line, name, _column(header, name)))
     n = len(data[required[0]])
     if n < 2:
         raise RecordingError(p, header_line + 1, f"needs at least 2 rows of data, found {n}")
@@ -187,7 +193,7 @@ def read_recording(path: str | Path) -> Recording:
         back = np.flatnonzero(np.diff(columns["time_s"]) < 0)
         if back.size:
             raise RecordingError(p, _data_line(rows, header_line, int(back[0]) + 1), "time goes backwards",
-                                 column="time_s")
+                                 column=_column(header, "time_s"))
     return Recording(p, kind, columns, meta)
 
 
