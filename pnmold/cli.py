@@ -123,12 +123,8 @@ def cmd_simulate(args) -> int:
     request = SimulationRequest(parse_pressures(args.pressures), args.model, args.kind, args.cycles,
                                 args.orientation, parse_effects(args.effects), args.rate_kpa_per_s)
     if args.model == "rom":
-        from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, cache_path
-        from pnmold.progress import stage_progress
-
-        cached = cache_path(design, DEFAULT_SIZE, DEFAULT_MAX_PRESSURE_KPA).is_file()
-        with stage_progress(err_console, args.quiet or cached, title=f"characterise {design.name} (once)") as say:
-            doc = simulate_rom(design, request, progress=say)
+        _characterise_once(design, args.quiet)
+        doc = simulate_rom(design, request)
     else:
         doc = simulate_fe(design, request)
     if args.json:
@@ -172,6 +168,17 @@ def cmd_effects(args) -> int:
     return 0
 
 
+def _characterise_once(design, quiet: bool) -> None:
+    """The FE characterisation the reduced model reads (minutes, with progress shown), unless it
+    is cached or ships with pnmold (the templates')."""
+    from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, characterise, stored_path
+    from pnmold.progress import stage_progress
+
+    stored = stored_path(design, DEFAULT_SIZE, DEFAULT_MAX_PRESSURE_KPA) is not None
+    with stage_progress(err_console, quiet or stored, title=f"characterise {design.name} (once)") as say:
+        characterise(design, progress=say)
+
+
 def cmd_diagnose(args) -> int:
     from pnmold.design import load_design
     from pnmold.diagnose import diagnose
@@ -181,6 +188,7 @@ def cmd_diagnose(args) -> int:
 
     recordings = read_all(args.recordings)  # every file checked before anything is computed or written
     design = load_design(args.design, args.set)
+    _characterise_once(design, args.quiet)
     diag = diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
                     diagnosis_effects(recordings), seed=args.seed)
     if args.json:
@@ -293,7 +301,8 @@ def make_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("simulate", help="quasi-static response (FE or reduced model) as JSON or a recording",
                        description="Solve the design's pressure curve with the FE model or the reduced model "
-                       "(--model rom, characterised by the FE once, cached in out/.cache/fe/): free bending, "
+                       "(--model rom, characterised by the FE once: templates ship theirs, others are cached in "
+                       "out/.cache/fe/): free bending, "
                        "pressure-volume, or blocked tip force, with physics effects switched on; write it as JSON "
                        "(pnmold.simulation/1) and/or as a recording in the lab format (synthetic data).")
     _add_design(p)

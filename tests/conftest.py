@@ -1,12 +1,12 @@
 """Shared fixtures: every template built once per session (without the FE); the fPN's
 stored free-bending FE steps (tests/data, produced as its ``produced_by`` says) and a
-reduced model on them; a session cache of FE characterisations seeded with the fPN's."""
+reduced model on them; a session cache of FE characterisations (the templates' own on the
+default mesh ship with pnmold, ``pnmold/data/characterisations``, and are read from there)."""
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 from pathlib import Path
 
 import pytest
@@ -34,25 +34,13 @@ def built(tmp_path_factory):
 
 #: the fPN's free-bending FE steps on the coarse mesh (a slow test checks the live FE agrees)
 STEPS = json.loads((Path(__file__).parent / "data" / "fpn-free-coarse-steps.json").read_text())["steps"]
-#: the fPN's characterisation on the default mesh (free run, probe, variants; about five minutes of
-#: FE): tests/test_rom.py checks it is the current design's and that the live FE agrees with it
-CHARACTERISATION = Path(__file__).parent / "data" / "fpn-characterisation.json"
-
-
 @pytest.fixture(scope="session", autouse=True)
 def fe_cache(tmp_path_factory):
     """FE characterisations of every test (and of the ``pnmold`` processes tests start) go to a
-    session folder, never to ``out/``; the stored fPN characterisation is in it when it is the
-    current design's (otherwise the FE runs, as for a user, and a test fails)."""
-    from pnmold.design import digest
-    from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, cache_path
-
+    session folder, never to ``out/``."""
     folder = tmp_path_factory.mktemp("fe-cache")
     old = os.environ.get("PNMOLD_CACHE")
     os.environ["PNMOLD_CACHE"] = str(folder)
-    fpn = load_design("fpn")
-    if json.loads(CHARACTERISATION.read_text())["design_digest"] == digest(fpn):
-        shutil.copyfile(CHARACTERISATION, cache_path(fpn, DEFAULT_SIZE, DEFAULT_MAX_PRESSURE_KPA))
     yield folder
     if old is None:
         os.environ.pop("PNMOLD_CACHE", None)

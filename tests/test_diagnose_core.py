@@ -85,3 +85,33 @@ def test_noise_is_estimated_from_the_data():
     x = np.linspace(0, 1, 400)
     r = 0.5 * x ** 2 + rng.normal(0, 0.3, x.size)
     assert noise_sigma(r, np.zeros(x.size, int), 1e-9) == pytest.approx(0.3, rel=0.15)
+
+
+def test_a_prediction_at_parameters_already_run_is_not_run_again():
+    """The fitter keeps each forward result by its exact parameters: the same parameters give the
+    same prediction (and the same failure) without another model run; other parameters run."""
+    from pnmold.diagnose.data import build_dataset
+    from pnmold.diagnose.decide import hypothesis
+    from pnmold.diagnose.fitting import Fitter
+    from pnmold.errors import SolveError
+
+    runs = []
+
+    def forward(effects, calib):
+        runs.append((dict(effects), dict(calib)))
+        if effects.get("sag", 0.0) > 2.0:
+            raise SolveError("no equilibrium")
+        return [toy(effects, calib)]
+
+    rec = Recording("toy.csv", "bending", {"pressure_kpa": P, "phase": PHASE, **toy({}, {})}, {})
+    fitter = Fitter(build_dataset([rec], forward({}, {})), forward)
+    runs.clear()
+    h = hypothesis([EFFECTS[0]])  # modulus_scale, sag
+    first = fitter.predict(h, np.array([1.0, 0.5]))
+    assert fitter.predict(h, np.array([1.0, 0.5])) is first and len(runs) == 1 == fitter.evaluations
+    fitter.predict(h, np.array([1.0, 0.6]))
+    assert len(runs) == 2 == fitter.evaluations
+    for _ in range(2):
+        with pytest.raises(SolveError):
+            fitter.predict(h, np.array([1.0, 2.5]))
+    assert len(runs) == 3 == fitter.evaluations

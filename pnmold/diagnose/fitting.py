@@ -22,6 +22,9 @@ from .data import DataSet
 FAILED_Z = 1e4
 #: start points optimised from (more are screened by their misfit first)
 MAX_STARTS = 2
+#: forward results kept by their exact parameters (a held-out or bootstrap refit starts where
+#: the full fit ended: its first point and Jacobian columns repeat)
+KEPT_PREDICTIONS = 512
 
 #: forward(effects, calibration) -> one prediction (columns by name) per recording;
 #: ``effects`` holds ``name`` -> value and ``name.param`` -> value (CONTRACTS.md §5)
@@ -84,17 +87,31 @@ def zscores(data: DataSet, predictions: list[dict[str, np.ndarray]]) -> np.ndarr
 
 
 class Fitter:
-    """Fits hypotheses to ``data`` through ``forward``; counts model evaluations."""
+    """Fits hypotheses to ``data`` through ``forward``; counts model evaluations (the forward
+    runs: a prediction at parameters already evaluated is the kept one, the model being
+    deterministic)."""
 
     def __init__(self, data: DataSet, forward: Forward):
         self.data = data
         self.forward = forward
         self.evaluations = 0
+        self._kept: dict[tuple, list[dict[str, np.ndarray]] | SolveError] = {}
 
     def predict(self, h: Hypothesis, x: np.ndarray) -> list[dict[str, np.ndarray]]:
-        self.evaluations += 1
         effects, calib = split_values(h, x)
-        return self.forward(effects, calib)
+        key = (tuple(sorted(effects.items())), tuple(sorted(calib.items())))
+        if key not in self._kept:
+            self.evaluations += 1
+            try:
+                self._kept[key] = self.forward(effects, calib)
+            except SolveError as err:
+                self._kept[key] = err
+            if len(self._kept) > KEPT_PREDICTIONS:
+                del self._kept[next(iter(self._kept))]  # the oldest
+        got = self._kept[key]
+        if isinstance(got, SolveError):
+            raise got
+        return got
 
     def z(self, h: Hypothesis, x: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
         """z-scores of every row; with ``weight`` (rows' multiplicities, e.g. 0 for held-out

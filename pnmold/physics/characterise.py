@@ -30,7 +30,10 @@ the fPN), while the test against 1 g stays a prediction, not a fit.
 
 Results are cached as JSON in ``out/.cache/fe/`` (``PNMOLD_CACHE`` overrides the folder),
 keyed by the design digest, the mesh size and the pressure limit. A cached file without
-the variants gains them on first use (the two solves above are not repeated).
+the variants gains them on first use (the two solves above are not repeated). The
+templates' characterisations on the default mesh ship with pnmold (:data:`BUNDLED_DIR`,
+written by ``scripts/bundle_characterisations.py``), so a template needs no FE here; a
+design that differs from a template in anything (another digest) is characterised once.
 """
 
 from __future__ import annotations
@@ -69,6 +72,8 @@ _ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm")
 #: mm/N scaled down predicts), the fPN's and the stiffening's are (within 5-15 %)
 VARIANTS = {"layer_compliance": (0.05, 0.15), "strain_stiffening": (0.04,)}
 VARIANT_FORMAT = 2  # at the free run's pressures; older runs are re-done
+#: the templates' characterisations (default mesh and pressure limit), read when the cache has none
+BUNDLED_DIR = Path(__file__).resolve().parents[1] / "data" / "characterisations"
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,10 +222,17 @@ def cache_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path:
     return cache_dir() / f"{key}.json"
 
 
+def stored_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path | None:
+    """The cached characterisation's file, else the bundled one's, else None (the FE must run)."""
+    path = cache_path(design, size, max_pressure_kpa)
+    return next((p for p in (path, BUNDLED_DIR / path.name) if p.is_file()), None)
+
+
 def characterise(design: Design, *, size: MeshSize | None = None,
                  max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
                  progress: Callable[[str], None] | None = None, variants: bool = True) -> Characterisation:
-    """The design's characterisation: from the cache, else quick-FE solves (minutes).
+    """The design's characterisation: from the cache or the bundled templates', else quick-FE
+    solves (minutes), written to the cache.
 
     ``size`` defaults to :data:`DEFAULT_SIZE` (3.5/7 mm: the full-bend pressure within 2 %
     of the build's 2.5/5 mm mesh); the free run stops at full bend or ``max_pressure_kpa``.
@@ -234,11 +246,12 @@ def characterise(design: Design, *, size: MeshSize | None = None,
     path = cache_path(design, size, max_pressure_kpa)
     say = progress or (lambda stage: None)
     result = None
-    if path.is_file():
+    stored = stored_path(design, size, max_pressure_kpa)
+    if stored is not None:
         try:
-            result = Characterisation.from_json(json.loads(path.read_text()))
+            result = Characterisation.from_json(json.loads(stored.read_text()))
         except (ValueError, KeyError, TypeError) as err:
-            log.warning("ignoring the unreadable cache %s: %s", path, err)
+            log.warning("ignoring the unreadable characterisation %s: %s", stored, err)
     if result is None:
         result = _run_fe(design, size, max_pressure_kpa, say)
         write_json(path, result.to_json())
