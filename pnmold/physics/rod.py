@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from pnmold.errors import SolveError
@@ -65,25 +66,34 @@ def node_positions(angle: np.ndarray, length: np.ndarray) -> np.ndarray:
     return out
 
 
-def _revcumsum(a: np.ndarray) -> np.ndarray:
-    return np.cumsum(a[:, ::-1], axis=1)[:, ::-1]
-
-
 def moments(nodes: np.ndarray, angle: np.ndarray, loads: RodLoads, gravity_xz: tuple[float, float],
             force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Moment about +y at the proximal node of each edge (N mm) and D (see module docstring)."""
-    r0, r1 = nodes[:, :-1], nodes[:, 1:]
-    normal = np.stack([np.sin(angle), np.cos(angle)], axis=-1)
-    q = r0 + loads.frac[None, :, None] * (r1 - r0) + loads.height_mm[None, :, None] * normal
-    f = loads.weight_n[:, None] * np.asarray(gravity_xz, float)[None, :]  # (K, 2)
-    sf = np.cumsum(f[::-1], axis=0)[::-1]  # (K, 2)
-    sqf = _revcumsum(q[..., 1] * f[None, :, 0] - q[..., 0] * f[None, :, 1])
-    sqd = _revcumsum(q[..., 0] * f[None, :, 0] + q[..., 1] * f[None, :, 1])
-    tip = nodes[:, -1]
-    m = sqf - (r0[..., 1] * sf[None, :, 0] - r0[..., 0] * sf[None, :, 1])
-    m -= (tip[:, None, 0] - r0[..., 0]) * force[:, None]
-    d = sqd - (r0[..., 0] * sf[None, :, 0] + r0[..., 1] * sf[None, :, 1])
-    d += (tip[:, None, 1] - r0[..., 1]) * force[:, None]
+    f64 = np.ascontiguousarray
+    return _moments(f64(nodes, float), f64(angle, float), f64(loads.weight_n, float), f64(loads.frac, float),
+                    f64(loads.height_mm, float), float(gravity_xz[0]), float(gravity_xz[1]), f64(force, float))
+
+
+@nb.njit(cache=True)
+def _moments(nodes, angle, weight, frac, height, gx, gz, force):  # pragma: no cover (compiled)
+    """Compiled :func:`moments`: the loads distal to each node summed from the tip inward."""
+    rows, k_edges = angle.shape
+    m = np.empty((rows, k_edges))
+    d = np.empty((rows, k_edges))
+    for r in range(rows):
+        tip_x, tip_z = nodes[r, k_edges, 0], nodes[r, k_edges, 1]
+        sfx = sfz = sqf = sqd = 0.0
+        for k in range(k_edges - 1, -1, -1):
+            r0x, r0z = nodes[r, k, 0], nodes[r, k, 1]
+            qx = r0x + frac[k] * (nodes[r, k + 1, 0] - r0x) + height[k] * np.sin(angle[r, k])
+            qz = r0z + frac[k] * (nodes[r, k + 1, 1] - r0z) + height[k] * np.cos(angle[r, k])
+            fx, fz = weight[k] * gx, weight[k] * gz
+            sfx += fx
+            sfz += fz
+            sqf += qz * fx - qx * fz
+            sqd += qx * fx + qz * fz
+            m[r, k] = sqf - (r0z * sfx - r0x * sfz) - (tip_x - r0x) * force[r]
+            d[r, k] = sqd - (r0x * sfx + r0z * sfz) + (tip_z - r0z) * force[r]
     return m, d
 
 
@@ -179,26 +189,37 @@ def structured_solve(compliance: np.ndarray, d: np.ndarray, rhs: np.ndarray) -> 
     """Solve (I + diag(C) A) x = rhs, A_kj = D_max(j,k), for (R, K, m) right-hand sides in O(K).
 
     Row k reads x_k = rhs_k - C_k (D_k S_(k-1) + T_(k-1)) with S the prefix sum of x and
-    T_(k-1) = sum_(j >= k) D_j x_j, so (S_k, T_k, 1) = A_k (S_(k-1), T_(k-1), 1): a prefix
-    product of 3x3 matrices (log2 K doubling steps), started from (0, tau, 1) with tau set
+    T_(k-1) = sum_(j >= k) D_j x_j, so (S_k, T_k, 1) = A_k (S_(k-1), T_(k-1), 1): a running
+    product of 3x3 matrices from the clamp to the tip, started from (0, tau, 1) with tau set
     by T_(K-1) = 0."""
-    cd = compliance * d
-    l00, l01, l10, l11 = 1.0 - cd, -compliance, cd * d, 1.0 + cd  # (R, K): the linear part
-    b0, b1 = rhs.copy(), -d[..., None] * rhs  # (R, K, m): the affine part
-    k = rhs.shape[1]
-    shift = 1
-    while shift < k:  # Hillis-Steele scan: A_i <- A_i o A_(i - shift)
-        a00, a01, a10, a11 = l00[:, shift:], l01[:, shift:], l10[:, shift:], l11[:, shift:]
-        p00, p01, p10, p11 = l00[:, :-shift], l01[:, :-shift], l10[:, :-shift], l11[:, :-shift]
-        q0, q1 = b0[:, :-shift], b1[:, :-shift]
-        b0[:, shift:], b1[:, shift:] = (b0[:, shift:] + a00[..., None] * q0 + a01[..., None] * q1,
-                                        b1[:, shift:] + a10[..., None] * q0 + a11[..., None] * q1)
-        l00[:, shift:], l01[:, shift:], l10[:, shift:], l11[:, shift:] = (
-            a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, a10 * p01 + a11 * p11)
-        shift *= 2
-    tau = -b1[:, -1] / l11[:, -1, None]  # (R, m)
-    s = l01[..., None] * tau[:, None, :] + b0
-    return np.diff(s, axis=1, prepend=0.0)
+    f64 = np.ascontiguousarray
+    return _structured_solve(f64(compliance, float), f64(d, float), f64(rhs, float))
+
+
+@nb.njit(cache=True)
+def _structured_solve(compliance, d, rhs):  # pragma: no cover (compiled)
+    rows, k_edges, n_rhs = rhs.shape
+    out = np.empty((rows, k_edges, n_rhs))
+    s_tau = np.empty(k_edges)  # dS_k / dtau
+    s_0 = np.empty(k_edges)  # S_k at tau = 0
+    for r in range(rows):
+        for j in range(n_rhs):
+            p00, p01, p10, p11, b0, b1 = 1.0, 0.0, 0.0, 1.0, 0.0, 0.0
+            for k in range(k_edges):
+                c, dk = compliance[r, k], d[r, k]
+                cd = c * dk
+                a00, a01, a10, a11 = 1.0 - cd, -c, cd * dk, 1.0 + cd
+                p00, p01, p10, p11 = a00 * p00 + a01 * p10, a00 * p01 + a01 * p11, a10 * p00 + a11 * p10, \
+                    a10 * p01 + a11 * p11
+                b0, b1 = a00 * b0 + a01 * b1 + rhs[r, k, j], a10 * b0 + a11 * b1 - dk * rhs[r, k, j]
+                s_tau[k], s_0[k] = p01, b0
+            tau = -b1 / p11
+            last = 0.0
+            for k in range(k_edges):
+                now = s_tau[k] * tau + s_0[k]
+                out[r, k, j] = now - last
+                last = now
+    return out
 
 
 def _norm(res, nodes, contact, plane_z_mm):
@@ -215,18 +236,22 @@ def _newton(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, conta
     eta, force = eta.copy(), force.copy()
     ok = np.zeros(angle_free.shape[0], bool)
     live = np.arange(angle_free.shape[0])
+    stalled = np.zeros(angle_free.shape[0], bool)
     it = 0
     while live.size and it < _MAX_ITERATIONS:
         it += 1
         sub = (angle_free[live], length[live], compliance[live], contact[live])
-        e, f, done = _newton_step(*sub, loads, gravity_xz, plane_z_mm, eta[live], force[live])
+        e, f, done, worse = _newton_step(*sub, loads, gravity_xz, plane_z_mm, eta[live], force[live])
         eta[live], force[live], ok[live] = e, f, done
-        live = live[~done]
+        gave_up = worse & stalled[live]  # every halving failed twice running: past a limit point
+        stalled[live] = worse
+        live = live[~done & ~gave_up]
     return eta, force, it, ok
 
 
 def _newton_step(angle_free, length, compliance, contact, loads, gravity_xz, plane_z_mm, eta, force):
-    """One Newton iteration of these rows: (eta, force, converged); converged rows get the full step."""
+    """One Newton iteration of these rows: (eta, force, converged, residual still grown after every
+    halving); converged rows get the full step."""
 
     def evaluate(eta, force):
         angle = angle_free + np.cumsum(eta, axis=1)
@@ -250,6 +275,7 @@ def _newton_step(angle_free, length, compliance, contact, loads, gravity_xz, pla
     done = big[:, 0] < _TOL_RAD  # False for NaN: a row that blew up never counts as converged
     scale = np.where(done[:, None], 1.0, np.minimum(1.0, _MAX_STEP_RAD / np.maximum(big, 1e-300)))
     norm0 = _norm(res, nodes, contact, plane_z_mm)
+    worse = np.zeros(done.shape, bool)
     for _ in range(_MAX_HALVINGS):  # backtrack rows whose residual grew (the weight's lever turns)
         trial = eta + scale * d_eta, force + scale[:, 0] * d_force
         if done.all():
@@ -259,4 +285,4 @@ def _newton_step(angle_free, length, compliance, contact, loads, gravity_xz, pla
         if not worse.any():
             break
         scale[worse] /= 2
-    return trial[0], trial[1], done
+    return trial[0], trial[1], done, worse
