@@ -60,9 +60,21 @@ class RodState:
 
 def node_positions(angle: np.ndarray, length: np.ndarray) -> np.ndarray:
     """(R, K+1, 2) positions of the nodes, node 0 at the origin."""
-    step = np.stack([length * np.cos(angle), -length * np.sin(angle)], axis=-1)
-    out = np.zeros((angle.shape[0], angle.shape[1] + 1, 2))
-    np.cumsum(step, axis=1, out=out[:, 1:])
+    angle = np.ascontiguousarray(angle, float)
+    return _node_positions(angle, np.ascontiguousarray(np.broadcast_to(length, angle.shape), float))
+
+
+@nb.njit(cache=True)
+def _node_positions(angle, length):  # pragma: no cover (compiled)
+    rows, k_edges = angle.shape
+    out = np.zeros((rows, k_edges + 1, 2))
+    for r in range(rows):
+        x = z = 0.0
+        for k in range(k_edges):
+            x += length[r, k] * np.cos(angle[r, k])
+            z += -length[r, k] * np.sin(angle[r, k])
+            out[r, k + 1, 0] = x
+            out[r, k + 1, 1] = z
     return out
 
 
