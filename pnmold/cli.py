@@ -123,8 +123,7 @@ def cmd_simulate(args) -> int:
     request = SimulationRequest(parse_pressures(args.pressures), args.model, args.kind, args.cycles,
                                 args.orientation, parse_effects(args.effects), args.rate_kpa_per_s)
     if args.model == "rom":
-        _characterise_once(design, args.quiet)
-        doc = simulate_rom(design, request)
+        doc = simulate_rom(design, request, _characterise_once(design, args.quiet))
     else:
         doc = simulate_fe(design, request)
     if args.json:
@@ -168,15 +167,15 @@ def cmd_effects(args) -> int:
     return 0
 
 
-def _characterise_once(design, quiet: bool) -> None:
-    """The FE characterisation the reduced model reads (minutes, with progress shown), unless it
-    is cached or ships with pnmold (the templates')."""
+def _characterise_once(design, quiet: bool):
+    """The FE characterisation the reduced model reads: cached or shipped with pnmold (the
+    templates'), else run now (minutes, with progress shown)."""
     from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, characterise, stored_path
     from pnmold.progress import stage_progress
 
     stored = stored_path(design, DEFAULT_SIZE, DEFAULT_MAX_PRESSURE_KPA) is not None
     with stage_progress(err_console, quiet or stored, title=f"characterise {design.name} (once)") as say:
-        characterise(design, progress=say)
+        return characterise(design, progress=say)
 
 
 def cmd_diagnose(args) -> int:

@@ -113,8 +113,7 @@ def simulate_fe(design: Design, request: SimulationRequest) -> dict[str, Any]:
             "steps": steps, "full_bend_pressure_kpa": sol.full_bend_pressure_kpa, "reason": sol.reason}
 
 
-def simulate_rom(design: Design, request: SimulationRequest, characterisation=None,
-                 progress=None) -> dict[str, Any]:
+def simulate_rom(design: Design, request: SimulationRequest, characterisation=None) -> dict[str, Any]:
     """Run the reduced model (characterising the design first, cached); the same document."""
     from pnmold.physics import Protocol, ReducedModel, characterise
     from pnmold.physics.characterise import DEFAULT_SIZE
@@ -122,7 +121,7 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 
     effects = check_effects(dict(request.effects), model="rom")
     if characterisation is None:
-        characterisation = characterise(design, size=_mesh_size(request, DEFAULT_SIZE), progress=progress)
+        characterisation = characterise(design, size=_mesh_size(request, DEFAULT_SIZE))
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
                                        request.rate_kpa_per_s, request.orientation)

@@ -115,19 +115,23 @@ def solve_rod(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarray
 
     Rows that repeat (a cycled ramp returns to the same pressures) are solved once, in the order
     they first appear (a failing row continues from the one before it, as a ramp does)."""
-    if not (np.any(gravity_xz) and np.any(loads.weight_n)) and plane_z_mm is None:
-        return RodState(angle_free, node_positions(angle_free, length), np.zeros(angle_free.shape),
-                        np.zeros(angle_free.shape[0]), 0)
+    loaded = bool(np.any(gravity_xz)) and bool(np.any(loads.weight_n))
+    if not loaded and plane_z_mm is None:  # nothing to solve: the free shape
+        return _solve_rows(angle_free, length, compliance, loads, gravity_xz, plane_z_mm)
     _, first, back = np.unique(np.concatenate([angle_free, length, compliance], axis=1), axis=0,
                                return_index=True, return_inverse=True)
-    if first.size < angle_free.shape[0]:
-        order = np.sort(first)
-        at = np.searchsorted(order, first[back.reshape(-1)])  # each row's place among the distinct ones
-        try:
-            one = solve_rod(angle_free[order], length[order], compliance[order], loads, gravity_xz, plane_z_mm)
-        except RodError as err:
-            raise RodError(np.flatnonzero(np.isin(at, err.rows))) from None
-        return RodState(one.angle_rad[at], one.nodes_mm[at], one.moment_n_mm[at], one.force_n[at], one.iterations)
+    order = np.sort(first)
+    at = np.searchsorted(order, first[back.reshape(-1)])  # each row's place among the distinct ones
+    try:
+        one = _solve_rows(angle_free[order], length[order], compliance[order], loads, gravity_xz, plane_z_mm)
+    except RodError as err:
+        raise RodError(np.flatnonzero(np.isin(at, err.rows))) from None
+    return RodState(one.angle_rad[at], one.nodes_mm[at], one.moment_n_mm[at], one.force_n[at], one.iterations)
+
+
+def _solve_rows(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarray, loads: RodLoads,
+                gravity_xz: tuple[float, float], plane_z_mm: float | None) -> RodState:
+    """:func:`solve_rod` on these rows as they are."""
     rows, k = angle_free.shape
     eta = np.zeros((rows, k))
     force = np.zeros(rows)
