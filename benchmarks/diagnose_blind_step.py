@@ -10,10 +10,11 @@ characterisation holds (its full-bend pressure, or the FE's last step), as the p
 was pulsed at 345 kPa; the recording runs on for 1.5 times the pulse (venting), at about
 300 rows.
 
-The data come from ``simulate_step`` (scipy's Radau, rtol 1e-7, on the FE chamber law scaled
-by the nuisance modulus) with the effect switched on; the diagnosis runs on the compiled
-step model (``pnmold.diagnose.dynamic``: the same equations, another integrator, so this
-tests identifiability and the decision rules, not a gap in fidelity). They are written as
+The data come from ``simulate_step`` (``pnmold simulate --dynamic``'s tolerances, rtol 1e-10,
+on the FE chamber law scaled by the nuisance modulus) with the effect switched on; the
+diagnosis runs the same compiled step model (``pnmold.pneumatics.StepModel``) at its own,
+looser tolerances (rtol 1e-6): the same equations, so this tests identifiability and the
+decision rules, not a gap in fidelity. They are written as
 lab step recordings (``time_s, supply_kpa, pressure_kpa, flow_slpm, bend_angle_deg,
 tip_x_mm, tip_z_mm``; ``--observed`` keeps fewer; metadata: design, orientation, the
 tubing) with no label; the key goes to a separate folder. ``pnmold diagnose`` runs on each
@@ -104,7 +105,7 @@ def _limit_kpa(name: str) -> float:
 
 def pulse(name: str, supply_kpa: float, share: float) -> tuple[float, float, float]:
     """(vent time, duration, sample period) of the pulse on the nominal actuator (module docstring)."""
-    from pnmold.diagnose.dynamic import StepModel, StepProtocol
+    from pnmold.pneumatics import StepModel, StepProtocol
 
     model = StepModel(load_design(name), _law(name))
     target = share * _limit_kpa(name)
@@ -138,7 +139,7 @@ def draw_cases(per_effect: int, n_null: int, seed: int, observed: str = ",".join
 
 
 def clean_columns(case: Case) -> dict[str, np.ndarray]:
-    """The recording's columns without noise: ``simulate_step`` (Radau) with the effect on."""
+    """The recording's columns without noise: ``simulate_step`` with the effect on."""
     from pnmold.pneumatics import ActuatorLine, BendingDynamics, Rig, simulate_step
 
     design = load_design(case.design)
@@ -161,7 +162,7 @@ def signature_noise(case: Case, clean: dict[str, np.ndarray]) -> dict[str, float
     else:
         from scipy.optimize import minimize_scalar
 
-        from pnmold.diagnose.dynamic import StepModel, StepProtocol
+        from pnmold.pneumatics import StepModel, StepProtocol
         from pnmold.recording import Recording
 
         model = StepModel(load_design(case.design), _law(case.design))

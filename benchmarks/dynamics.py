@@ -12,7 +12,7 @@ beside the paper's ~50 ms.
    fPNs" describes only the rig: regulator, two solenoid valves, flow and pressure sensors.)
    Then what sets the time: the mean pressure drop over the fill across each restriction
    (valve, tubing, channel), and the time with each restriction or the bending inertia taken
-   away in turn, plus the tubing-length sweep and the adiabatic bound.
+   away in turn, plus the tubing-length sweep.
 
 Needs the FE characterisation of both templates (``pnmold.physics.characterise``, cached
 in ``out/.cache/fe``; a few minutes each the first time).
@@ -38,11 +38,11 @@ from pnmold.pneumatics.gas import slpm_from_kg_s  # noqa: E402
 PAPER_MS = 50.0  # Mosadegh et al. 2014, abstract: full bend in ~50 ms at 345 kPa
 
 
-def _run(design, law, rig, duration_s, *, line=None, bending=None, gas_law="isothermal"):
+def _run(design, law, rig, duration_s, *, line=None, bending=None):
     line = line or ActuatorLine.from_design(design)
     bending = bending or BendingDynamics.from_design(design)
     t0 = time.perf_counter()
-    res = simulate_step(law, line, bending, rig, duration_s=duration_s, gas_law=gas_law)
+    res = simulate_step(law, line, bending, rig, duration_s=duration_s)
     return res, time.perf_counter() - t0
 
 
@@ -97,7 +97,7 @@ def compare(laws, designs, supply_kpa, duration_s):
               f"{info['volume_change_at_full_bend_ml']:.2f} mL{extrap}); {common:.0f} deg at "
               f"{_ms(rows[name]['t_c']).strip()} (quasi-static {p_c:.1f} kPa, {dv_c:.2f} mL); rest volume "
               f"{float(law.volume_ml(0)):.2f} mL; mass {info['mass_g']:.1f} g, bending mode "
-              f"{info['natural_frequency_hz']:.1f} Hz [{wall:.1f} s]")
+              f"{info['natural_frequency_hz']:.1f} Hz [{wall * 1000:.0f} ms, {info['steps']} steps]")
         if tfb is None:
             print(f"     {res.reason}")
     f, s_ = rows["fpn"], rows["spn"]
@@ -173,8 +173,6 @@ def explain_fpn(design, law, supply_kpa, duration_s):
     for label, rig, ln, bd in cases:
         res, _ = _run(design, law, rig, duration_s, line=ln, bending=bd)
         print(f"  {label:<45} {_ms(res.time_to_full_bend_s)}")
-    adi, _ = _run(design, law, Rig(supply_kpa), duration_s, gas_law="adiabatic")
-    print(f"  {'adiabatic gas (the fast bound)':<45} {_ms(adi.time_to_full_bend_s)}")
     print("tubing length sweep (0.79 mm bore):")
     for length in (50.0, 100.0, 300.0, 1000.0):
         res, _ = _run(design, law, Rig(supply_kpa, tubing_length_mm=length), duration_s)

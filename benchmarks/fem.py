@@ -24,7 +24,7 @@ from pnmold.quickfe import BUILD_MESH, run_fe  # noqa: E402
 
 
 def _one(design, step, size, pressures, label):
-    run = run_fe(design, step, size=size, pressures_kpa=pressures, orientation="chambers_up")
+    run = run_fe(design, step_path=step, size=size, pressures_kpa=pressures, orientation="chambers_up")
     s = run.solution.stats
     last = run.solution.steps[-1]
     its = s.get("newton_iterations", [])

@@ -335,7 +335,8 @@ def compare(design, step, *, pressure_kpa: float = 5.0, size: tuple[float, float
     with the pointwise penalty K = ``bulk_ratio`` mu on both sides; no membrane, no gravity.
     """
     from pnmold.fem import Yeoh
-    from pnmold.mesh import MeshSize, mesh_actuator
+    from pnmold.mesh import mesh_actuator
+    from pnmold.tetmesh import MeshSize
 
     mesh, _ = mesh_actuator(Path(step), design, MeshSize(*size))
     print(f"peer check: fPN {'half ' if mesh.half else ''}model, MeshSize{tuple(size)}: "

@@ -44,7 +44,7 @@ def compare(design, rom, step, orientation: str, max_kpa: float) -> None:
     from pnmold.quickfe import run_fe
 
     t0 = time.perf_counter()
-    fe = run_fe(design, step, size=DEFAULT_SIZE, orientation=orientation, max_pressure_kpa=max_kpa,
+    fe = run_fe(design, step_path=step, size=DEFAULT_SIZE, orientation=orientation, max_pressure_kpa=max_kpa,
                 keep_partial=True).solution
     fe_s = time.perf_counter() - t0
     p = np.array([s.pressure_kpa for s in fe.steps])
@@ -58,14 +58,10 @@ def compare(design, rom, step, orientation: str, max_kpa: float) -> None:
 
 
 def blocked_force(design, rom, step, pressures) -> None:
-    from pnmold.fem import solve_blocked_force
-    from pnmold.mesh import mesh_actuator
-    from pnmold.quickfe import gravity_vector, material_of, membrane_of
+    from pnmold.quickfe import run_fe
 
-    mesh, _ = mesh_actuator(step, design, DEFAULT_SIZE)
     t0 = time.perf_counter()
-    sol = solve_blocked_force(mesh, material_of(design), membrane_of(design), pressures_kpa=pressures,
-                              gravity=gravity_vector(design, "chambers_up"))
+    sol = run_fe(design, step_path=step, size=DEFAULT_SIZE, kind="force", pressures_kpa=pressures).solution
     fe_s = time.perf_counter() - t0
     p = np.array([s.pressure_kpa for s in sol.steps])
     out = rom.run(Protocol("force", p, "chambers_up"))
@@ -76,13 +72,11 @@ def blocked_force(design, rom, step, pressures) -> None:
 
 def effect_in_fe(design, rom, effects: dict[str, float], pressures) -> None:
     """The FE with an effect switched on (no gravity) against the reduced model with and without it."""
-    from pnmold.physics.effects import design_for_fe
     from pnmold.simulate import SimulationRequest, simulate_fe
 
     t0 = time.perf_counter()
     request = SimulationRequest((0.0, *pressures), "fe", effects=tuple({**effects, "gravity": 0.0}.items()),
                                 mesh_size=(DEFAULT_SIZE.wall_mm, DEFAULT_SIZE.max_mm))
-    design_for_fe(design, effects)  # refuses effects the FE lacks before any CAD
     steps = simulate_fe(design, request)["steps"]
     fe_s = time.perf_counter() - t0
     p = np.array([s["pressure_kpa"] for s in steps])

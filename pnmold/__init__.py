@@ -8,7 +8,7 @@ The public API::
     result = build(taller, "out/fpn-tall")                   # STEP, STL, report.json
 """
 
-__version__ = "0.1.0"
+from pnmold.version import __version__
 
 __all__ = ["build", "load_design", "__version__"]
 

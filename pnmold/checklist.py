@@ -178,3 +178,4 @@ def render_html(design: Design, sections: list[Section]) -> str:
         parts.append(f"<section><h2>{n}. {html.escape(section.title)}</h2><ul>{items}</ul></section>")
     parts.append("</body></html>")
     return "\n".join(parts)
+

@@ -1,10 +1,21 @@
 """The small error hierarchy of pnmold.
 
-Every error pnmold raises on purpose is a :class:`PnmoldError`; the CLI maps the
-subclasses to exit codes (2 for bad input, 3 for geometry, meshing or solver failures).
+Every error pnmold raises on purpose is a :class:`PnmoldError`; the command line maps the
+subclasses to exit codes (CONTRACTS.md §1): 2 for bad input (a design, the command line, a
+recording or data file), 3 for geometry, meshing or solver failures. Anything else that
+escapes is a bug: the command line prints it in one line and exits with
+:data:`EXIT_UNEXPECTED`, never 1 (the code of "a design-rule check failed").
 """
 
 from __future__ import annotations
+
+import os
+from typing import Any
+
+#: exit code of an unexpected exception (sysexits.h EX_SOFTWARE, "internal software error")
+EXIT_UNEXPECTED = 70
+#: exit code after Ctrl-C (128 + SIGINT, as a shell reports it)
+EXIT_INTERRUPTED = 130
 
 
 class PnmoldError(Exception):
@@ -19,8 +30,17 @@ class DesignError(PnmoldError, ValueError):
     exit_code = 2
 
     def __init__(self, field: str, message: str):
-        self.field = field
+        self.field, self.message = field, message
         super().__init__(f"{field}: {message}")
+
+
+class SweepError(DesignError):
+    """A sweep file is unreadable or wrong; names the file and the field (exit 2)."""
+
+    def __init__(self, path: str | os.PathLike, field: str, message: str):
+        self.path = str(path)
+        super().__init__(field, message)
+        self.args = (f"{self.path}: {field}: {message}",)
 
 
 class UsageError(PnmoldError, ValueError):
@@ -65,10 +85,23 @@ class MeshingError(PnmoldError):
 
 
 class SolveError(PnmoldError):
-    """The nonlinear solve failed; names the load step and keeps the residual history."""
+    """A solve failed; names the load step and keeps the residual history.
+
+    ``partial``: what converged before the failure (e.g. the FE's
+    :class:`~pnmold.fem.Solution` up to the last converged step), or None."""
 
     def __init__(self, message: str, last_converged: float | None = None,
-                 residuals: list[float] | None = None):
+                 residuals: list[float] | None = None, partial: Any = None):
         self.last_converged = last_converged
         self.residuals = list(residuals or [])
+        self.partial = partial
         super().__init__(message)
+
+
+class RodError(SolveError):
+    """The reduced model's rod found no equilibrium for some rows (``rows``: their indices)."""
+
+    def __init__(self, rows: Any):
+        self.rows = rows
+        super().__init__(f"reduced model: no equilibrium of the rod for {len(rows)} row(s) (first: row {rows[0]}) "
+                         "after ramping the weight and starting from the previous row")

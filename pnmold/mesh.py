@@ -35,30 +35,12 @@ from pnmold.tetmesh import (
     FREE_END,
     STRAIN_LIMITING_LAYER,
     SYMMETRY,
+    MeshSize,
     TetMesh,
 )
 
 log = logging.getLogger(__name__)
 _TOL = 1e-3
-
-
-@dataclass(frozen=True)
-class MeshSize:
-    """Element sizes (mm) of the linear tets that carry quadratic (P2) fields.
-
-    ``wall_mm`` applies within ``band_mm`` of the cavity (the thin walls), growing to
-    ``max_mm`` farther away (bottom layer, end wall). The defaults give about one
-    quadratic element across a 1 mm wall; the full-bend pressure of the fPN moved 0.5%
-    when refined to 2/4 mm (benchmarks/fem.py prints the tip at a reference pressure).
-    """
-
-    wall_mm: float = 2.5
-    max_mm: float = 5.0
-    band_mm: float = 1.0
-    half: bool = True
-
-    def refined(self, factor: float) -> MeshSize:
-        return MeshSize(self.wall_mm / factor, self.max_mm / factor, self.band_mm, self.half)
 
 
 @dataclass(frozen=True)
@@ -109,7 +91,7 @@ def name_facets(nodes: np.ndarray, facets: np.ndarray, design: Design, half: boo
     x, z = centre[:, 0], centre[:, 2]
     on_symmetry = (np.abs(centre[:, 1]) < _TOL) & (normal[:, 1] < -0.99) if half else np.zeros(len(p), bool)
     cavity = _inside(centre, _cores(design)) & ~on_symmetry
-    proximal = x <= clamp_end_mm(design) + _TOL
+    proximal = x <= design.clamp_end_mm + _TOL
     top = (np.abs(z - design.height_mm) < _TOL) & (normal[:, 2] > 0.99)
     bottom = (np.abs(z) < _TOL) & (normal[:, 2] < -0.99)
     px, py = design.paper_size_mm
@@ -144,7 +126,7 @@ def _geometry(step: Path, design: Design, half: bool) -> list[int]:
     px, py = design.paper_size_mm
     y0 = 0.0 if half else -py / 2
     paper = occ.addRectangle(design.paper.inset_mm, y0, 0.0, px, py / 2 if half else py)
-    x_clamp = clamp_end_mm(design)
+    x_clamp = design.clamp_end_mm
     cut = occ.addRectangle(-2.0, -design.width_mm, 0.0, design.height_mm + 4, 2 * design.width_mm)
     occ.rotate([(2, cut)], 0, 0, 0, 0, 1, 0, -np.pi / 2)
     occ.translate([(2, cut)], x_clamp, 0, 0)
@@ -154,11 +136,6 @@ def _geometry(step: Path, design: Design, half: bool) -> list[int]:
     occ.remove(loose, recursive=True)
     occ.synchronize()
     return [t for _, t in gmsh.model.getEntities(3)]
-
-
-def clamp_end_mm(design: Design) -> float:
-    """x where the proximal chamber (its cavity and distal wall) ends: the clamp's extent."""
-    return design.cavity_x_mm(0)[1] + design.chambers.inside_wall_mm
 
 
 def _size_field(design: Design, size: MeshSize) -> None:

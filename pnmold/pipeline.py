@@ -13,16 +13,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import pnmold
 from pnmold import report as rep
 from pnmold.checklist import checklist_sections, render_markdown
 from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
+from pnmold.errors import UsageError
 from pnmold.fsutil import staged_dir, write_json, write_text
 from pnmold.report_html import write_report
+from pnmold.version import __version__
 
 if TYPE_CHECKING:
-    from pnmold.mesh import MeshSize
+    from pnmold.tetmesh import MeshSize
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +63,19 @@ def record_checks(report: dict[str, Any], checks: CheckReport) -> dict[str, Any]
     return {**report, "checks": found, "slicer": slicer_summary(found)}
 
 
+def recheck(folder: str | Path, *, use_slicer: bool = True) -> dict[str, Any]:
+    """Run the design-rule gate again on a build folder's files; update its ``report.json`` (the
+    checks and the slicer's estimates, the rest kept) and return the new report."""
+    import json
+
+    path = Path(folder) / "report.json"
+    checks = check_parts(folder, use_slicer=use_slicer)
+    report = json.loads(path.read_text()) if path.is_file() else {}
+    report = record_checks(report, checks)
+    write_json(path, report)
+    return report
+
+
 def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True,
           use_slicer: bool = True, progress: Progress | None = None,
           fem_size: MeshSize | None = None) -> BuildResult:
@@ -89,7 +103,7 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
         parts = timed("measure", rep.measure_parts, tmp, PART_NAMES)
         report: dict[str, Any] = {
             "schema": rep.SCHEMA,
-            "pnmold_version": pnmold.__version__,
+            "pnmold_version": __version__,
             "design": rep.design_entry(design),
             "versions": rep.versions(),
             "parts": parts,
@@ -116,22 +130,15 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
 
 def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
     """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
-    from pnmold.quickfe import (
-        BUILD_MESH,
-        BUILD_OPTIONS,
-        bending_figure,
-        blocked_force_report,
-        fem_report,
-        run_fe,
-        write_field,
-    )
+    from pnmold.fe_report import bending_figure, blocked_force_report, fem_report, write_field
+    from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, run_fe
 
-    run = run_fe(design, folder / "actuator.step", size=size or BUILD_MESH, options=BUILD_OPTIONS,
+    run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH, options=BUILD_OPTIONS,
                  keep_partial=True)
-    bending_figure(design, run, folder / "bending.png")
+    bending_figure(run, folder / "bending.png")
     write_field(run, folder / "fem_field.npz")
     section = fem_report(run)
-    section["blocked_force"] = blocked_force_report(design, run)
+    section["blocked_force"] = blocked_force_report(run)
     section["timings_s"] = {**run.timings_s, "blocked_force": section["blocked_force"].get("seconds")}
     return section
 
@@ -149,3 +156,14 @@ def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, A
             return report
     with tempfile.TemporaryDirectory() as tmp:
         return build(design, Path(tmp) / design.name, fem=False, use_slicer=False).report
+
+
+def checklist_text(design: Design, fmt: str = "md") -> str:
+    """The fabrication checklist of ``design`` as Markdown (``md``) or printable HTML, with the
+    quantities of its build report (:func:`report_for`)."""
+    from pnmold.checklist import render_html
+
+    if fmt not in ("md", "html"):
+        raise UsageError(f"--format: md or html, got {fmt!r}")
+    sections = checklist_sections(design, report_for(design))
+    return (render_html if fmt == "html" else render_markdown)(design, sections)

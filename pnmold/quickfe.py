@@ -1,32 +1,33 @@
-"""The quick FE stage of a build: mesh the exported STEP, bend it, report and plot.
+"""The one door from a design to an FE curve: :func:`run_fe`.
 
-design -> :func:`pnmold.mesh.mesh_actuator` (gmsh, the same ``actuator.step``) ->
-:func:`pnmold.fem.solve_bending` (scikit-fem) -> the ``fem`` section of ``report.json``
-and ``bending.png``. Gravity follows the test orientation (CONTRACTS.md §4); the build's
+design (+ catalogued effects the FE carries) -> the actuator's STEP (the build's own file, or
+the actuator alone exported for the purpose: no molds, no gate, no pictures) ->
+:func:`pnmold.mesh.mesh_actuator` (gmsh) -> :func:`pnmold.fem.solve_bending` or
+:func:`pnmold.fem.solve_blocked_force` (scikit-fem) -> :class:`FeRun`. The build, ``pnmold
+simulate --model fe``, the reduced model's characterisation and the pneumatic chamber law
+all come through here. Gravity follows the test orientation (CONTRACTS.md §4); the build's
 quick solve assumes the actuator lies chambers up (gravity along -z), as on a bench.
 """
 
 from __future__ import annotations
 
-import io
+import dataclasses
 import logging
+import tempfile
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
+from pnmold.conventions import gravity_direction
 from pnmold.design import Design
-from pnmold.errors import SolveError
-from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, blocked_force_slope, solve_bending
-from pnmold.fsutil import write_bytes
-from pnmold.mesh import MeshQuality, MeshSize, mesh_actuator
-from pnmold.tetmesh import TetMesh
+from pnmold.effects import check_effects, value_of
+from pnmold.errors import DesignError, SolveError
+from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, solve_bending, solve_blocked_force
+from pnmold.tetmesh import MeshSize, TetMesh
 
 log = logging.getLogger(__name__)
 
-WATER_DENSITY_G_PER_ML = 0.998  # at 20 °C
 #: the build's quick solve stops here if the actuator has not closed into a circle (assumed)
 QUICK_MAX_PRESSURE_KPA = 150.0
 #: the build's preview mesh: coarser than the default MeshSize (2.5/5 mm). With gravity the
@@ -35,23 +36,7 @@ QUICK_MAX_PRESSURE_KPA = 150.0
 BUILD_MESH = MeshSize(3.2, 6.4)
 #: the build's load stepping: bend increments of up to 70 degrees instead of 40 (a preview)
 BUILD_OPTIONS = SolveOptions(max_angle_step_deg=70.0)
-ORIENTATIONS = ("chambers_up", "chambers_down", "horizontal", "submerged", "none")
-
-
-def gravity_vector(design: Design, orientation: str) -> tuple[float, float, float] | None:
-    """Gravity in units of g in the actuator frame, net of buoyancy when submerged."""
-    if orientation == "chambers_up":
-        return (0.0, 0.0, -1.0)
-    if orientation == "chambers_down":
-        return (0.0, 0.0, 1.0)
-    if orientation == "horizontal":
-        return (0.0, -1.0, 0.0)  # out of the bending plane: needs the full (not half) model
-    if orientation == "submerged":
-        net = 1.0 - WATER_DENSITY_G_PER_ML / design.material.density_g_per_ml
-        return (0.0, 0.0, -net)
-    if orientation == "none":
-        return None
-    raise ValueError(f"unknown orientation {orientation!r}; one of {', '.join(ORIENTATIONS)}")
+FE_KINDS = ("bending", "force")
 
 
 def material_of(design: Design) -> Yeoh:
@@ -64,147 +49,95 @@ def membrane_of(design: Design) -> Membrane:
     return Membrane(modulus_mpa=p.modulus_mpa, poisson=p.poisson, thickness_mm=p.thickness_mm)
 
 
+def design_for_fe(design: Design, effects: Mapping[str, float]) -> tuple[Design, float]:
+    """The design the FE solves with the material and layer effects in it, and the gravity factor."""
+    values = check_effects(effects, model="fe")
+    c20 = value_of(values, "strain_stiffening")
+    c30 = value_of(values, "strain_stiffening.c30_mpa")
+    if c20 or c30:
+        m = design.material
+        design = design.replace("material", c20_mpa=m.c20_mpa + c20, c30_mpa=m.c30_mpa + c30)
+    compliance = value_of(values, "layer_compliance")
+    if compliance:
+        p = design.paper
+        stiffness = 1.0 / (1.0 / (p.modulus_mpa * p.thickness_mm) + compliance)
+        design = design.replace("paper", modulus_mpa=stiffness / p.thickness_mm)
+    return design, value_of(values, "gravity")
+
+
 @dataclass(frozen=True, eq=False)
 class FeRun:
-    """A solved curve with the mesh it was solved on."""
+    """A solved curve with the mesh it was solved on (``design``: as solved, effects in it)."""
 
+    design: Design
     mesh: TetMesh
-    quality: MeshQuality
+    quality: object  # pnmold.mesh.MeshQuality
     solution: Solution
     size: MeshSize
     orientation: str
+    gravity_g: tuple[float, float, float] | None
     timings_s: dict[str, float]
 
 
-def run_fe(design: Design, step_path: str | Path, *, size: MeshSize | None = None,
-           orientation: str = "chambers_up", max_pressure_kpa: float = QUICK_MAX_PRESSURE_KPA,
-           pressures_kpa: list[float] | None = None, options: SolveOptions | None = None,
+def run_fe(design: Design, *, orientation: str = "chambers_up", effects: Mapping[str, float] | None = None,
+           pressures_kpa: Sequence[float] | None = None, max_pressure_kpa: float | None = None,
+           kind: str = "bending", size: MeshSize | None = None, options: SolveOptions | None = None,
+           step_path: str | Path | None = None, mesh_of: FeRun | None = None,
            keep_partial: bool = False) -> FeRun:
-    """Mesh ``step_path`` and bend it under cavity pressure (and gravity).
+    """Solve ``design``'s pressure curve in the FE.
 
-    With ``keep_partial``, a solver failure returns the curve up to the last converged
-    step, its ``reason`` naming the failure; otherwise :class:`SolveError` propagates."""
-    gravity = gravity_vector(design, orientation)
+    Parameters
+    ----------
+    orientation : where gravity points (CONTRACTS.md §4), or ``none`` for no gravity.
+    effects : catalogued effects the FE carries (``gravity`` = its factor, default 1;
+        ``strain_stiffening``; ``layer_compliance``), by name (and ``NAME.PARAM``).
+    pressures_kpa, max_pressure_kpa : the curve's pressures, or up to full bend or the maximum
+        (default :data:`QUICK_MAX_PRESSURE_KPA`).
+    kind : ``bending`` (free) or ``force`` (blocked tip, supplement Fig. S6).
+    size : the mesh (default :class:`MeshSize`); a whole model where gravity leaves the plane.
+    step_path : the actuator's STEP to mesh (a build's own file); default: the actuator alone,
+        exported to a temporary folder.
+    mesh_of : solve on the mesh of an earlier run of the same geometry instead (no meshing).
+    keep_partial : on a solver failure return the curve up to the last converged step (its
+        ``reason`` names the failure) instead of raising :class:`SolveError`.
+    """
+    if kind not in FE_KINDS:
+        raise DesignError("kind", f"the FE solves {', '.join(FE_KINDS)}, got {kind!r}")
+    solved, g = design_for_fe(design, effects or {})
+    direction = gravity_direction(orientation, solved.material.density_g_per_ml)
+    gravity = None if direction is None or g == 0 else tuple(g * v for v in direction)
     size = size or MeshSize()
-    if gravity is not None and abs(gravity[1]) > 0 and size.half:
-        size = MeshSize(size.wall_mm, size.max_mm, size.band_mm, half=False)
+    if gravity is not None and gravity[1] != 0 and size.half:
+        size = dataclasses.replace(size, half=False)  # out of the bending plane: the whole body
     t0 = time.perf_counter()
-    mesh, quality = mesh_actuator(step_path, design, size)
+    if mesh_of is not None:
+        mesh, quality, size = mesh_of.mesh, mesh_of.quality, mesh_of.size
+    else:
+        mesh, quality = _mesh(solved, size, step_path)
     t1 = time.perf_counter()
-    kwargs = {"pressures_kpa": pressures_kpa} if pressures_kpa else {"max_pressure_kpa": max_pressure_kpa}
+    if pressures_kpa is not None:
+        loads = {"pressures_kpa": list(pressures_kpa)}
+    else:
+        loads = {"max_pressure_kpa": QUICK_MAX_PRESSURE_KPA if max_pressure_kpa is None else max_pressure_kpa}
+    solve = solve_blocked_force if kind == "force" else solve_bending
     try:
-        solution = solve_bending(mesh, material_of(design), membrane_of(design), gravity=gravity,
-                                 options=options, **kwargs)
+        solution = solve(mesh, material_of(solved), membrane_of(solved), gravity=gravity, options=options, **loads)
     except SolveError as err:
-        if not keep_partial or getattr(err, "partial", None) is None:
+        if not keep_partial or err.partial is None:
             raise
         log.warning("FE stopped: %s", err)
         solution = err.partial
     t2 = time.perf_counter()
-    return FeRun(mesh, quality, solution, size, orientation, {"mesh": round(t1 - t0, 3), "solve": round(t2 - t1, 3)})
+    return FeRun(solved, mesh, quality, solution, size, orientation, gravity,
+                 {"mesh": round(t1 - t0, 3), "solve": round(t2 - t1, 3)})
 
 
-def fem_report(run: FeRun) -> dict[str, Any]:
-    """The ``fem`` section of ``report.json`` (CONTRACTS.md §3)."""
-    sol = run.solution
-    keys = ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml", "max_principal_stretch")
-    steps = []
-    for s in sol.steps:
-        d = s.as_dict()
-        steps.append({**{k: round(float(d[k]), 6) for k in keys},
-                      "max_stretch_at_mm": [round(float(v), 3) for v in d["max_stretch_at_mm"]],
-                      "clamp_reaction_n": [round(float(v), 6) for v in d["clamp_reaction_n"]]})
-    return {
-        "full_bend_pressure_kpa": None if sol.full_bend_pressure_kpa is None else round(sol.full_bend_pressure_kpa, 4),
-        "reason": sol.reason,
-        "max_pressure_kpa": round(sol.max_pressure_kpa, 4),
-        "orientation": run.orientation,
-        "mesh": {"nodes": run.quality.n_nodes, "tets": run.quality.n_tets, "half_model": run.size.half,
-                 "wall_size_mm": run.size.wall_mm, "max_size_mm": run.size.max_mm,
-                 "min_quality_gamma": round(run.quality.min_gamma, 4)},
-        "solver": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in sol.stats.items()},
-        "steps": steps,
-    }
+def _mesh(design: Design, size: MeshSize, step_path: str | Path | None):
+    from pnmold.mesh import mesh_actuator
 
+    if step_path is not None:
+        return mesh_actuator(step_path, design, size)
+    from pnmold.cad import export_actuator_step
 
-def blocked_force_report(design: Design, run: FeRun, n_points: int = 9) -> dict[str, Any]:
-    """``fem.blocked_force``: the tip force against a plane under the tip (supplement Fig. S6),
-    to first order in pressure about the rest state on the plane, on the run's mesh and
-    gravity, from 0 kPa to the free curve's last pressure."""
-    t0 = time.perf_counter()
-    try:
-        slope = blocked_force_slope(run.mesh, material_of(design), membrane_of(design),
-                                    gravity=gravity_vector(design, run.orientation))
-    except SolveError as err:
-        return {"reason": f"blocked-force solve failed: {err}", "steps": []}
-    top = run.solution.max_pressure_kpa
-    steps = [{"pressure_kpa": round(float(p), 4), "force_n": round(slope.force_n(p), 6)}
-             for p in np.linspace(0.0, top, n_points)]
-    return {"method": "linearised in pressure about the unpressurised actuator resting on the plane "
-                      "(gravity applied); the nonlinear curve: pnmold simulate --model fe --kind force",
-            "force0_n": round(slope.force0_n, 6), "slope_n_per_kpa": round(slope.slope_n_per_kpa, 8),
-            "steps": steps, "seconds": round(time.perf_counter() - t0, 3)}
-
-
-def boundary_triangles(mesh: TetMesh) -> np.ndarray:
-    """(m, 3) node indices of the faces that belong to one tetrahedron only."""
-    faces = mesh.tets[:, [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]].reshape(-1, 3)
-    key = np.sort(faces, axis=1)
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return faces[counts[inverse.ravel()] == 1]
-
-
-def stretch_field(mesh: TetMesh, displacement_mm: np.ndarray) -> np.ndarray:
-    """Largest principal stretch per node: the largest over the tets around it, from the
-    vertex displacements (linear interpolation: for pictures, not for the report's figure,
-    which the P2 solution gives at its quadrature points)."""
-    x0 = mesh.nodes_mm[mesh.tets]
-    x1 = x0 + displacement_mm[mesh.tets]
-    d0 = np.transpose(x0[:, 1:] - x0[:, :1], (0, 2, 1))
-    d1 = np.transpose(x1[:, 1:] - x1[:, :1], (0, 2, 1))
-    F = d1 @ np.linalg.inv(d0)
-    lam = np.sqrt(np.linalg.eigvalsh(np.transpose(F, (0, 2, 1)) @ F)[:, -1])
-    out = np.zeros(mesh.n_nodes)
-    np.maximum.at(out, mesh.tets.ravel(), np.repeat(lam, 4))
-    return out
-
-
-def write_field(run: FeRun, path: str | Path) -> Path:
-    """``fem_field.npz``: the last converged shape and its stretch on the boundary, for the
-    report's strain picture (keys ``nodes_mm``, ``displacement_mm``, ``surface_tris``,
-    ``stretch``, ``pressure_kpa``, ``half``)."""
-    mesh, u = run.mesh, run.solution.displacement_mm
-    buf = io.BytesIO()
-    np.savez_compressed(buf, nodes_mm=mesh.nodes_mm, displacement_mm=u,
-                        surface_tris=boundary_triangles(mesh), stretch=stretch_field(mesh, u),
-                        pressure_kpa=run.solution.max_pressure_kpa, half=mesh.half)
-    return write_bytes(path, buf.getvalue())
-
-
-def deformed_outline(mesh: TetMesh, displacement: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(bottom, top): deformed x-z polylines of the bottom face and the roof along y = 0."""
-    x0 = mesh.nodes_mm
-    on_plane = np.abs(x0[:, 1]) < 1e-6
-    z_top = x0[on_plane, 2].max()
-    lines = []
-    for z in (0.0, z_top):
-        sel = np.where(on_plane & (np.abs(x0[:, 2] - z) < 1e-6))[0]
-        sel = sel[np.argsort(x0[sel, 0])]
-        lines.append((x0[sel] + displacement[sel])[:, [0, 2]])
-    return lines[0], lines[1]
-
-
-def bending_figure(design: Design, run: FeRun, path: str | Path, n_shapes: int = 6) -> Path:
-    """``bending.png``: deformed shapes at several pressures, tip trajectory, angle, P-V."""
-    from pnmold.plots import plot_bending
-
-    sol = run.solution
-    picks = sorted(set(np.linspace(0, len(sol.steps) - 1, min(n_shapes, len(sol.steps))).round().astype(int)))
-    shapes = []
-    for i in picks:
-        if i < len(sol.shapes_mm):
-            bottom, top = deformed_outline(run.mesh, sol.shapes_mm[i])
-            shapes.append((sol.steps[i].pressure_kpa, bottom, top))
-    title = (f"{design.name}: full bend at {sol.full_bend_pressure_kpa:.1f} kPa" if sol.full_bend_pressure_kpa
-             else f"{design.name}: {sol.reason}")
-    return plot_bending(title, fem_report(run)["steps"], shapes, path, sol.full_bend_pressure_kpa)
+    with tempfile.TemporaryDirectory(prefix="pnmold-fe-") as tmp:
+        return mesh_actuator(export_actuator_step(design, tmp), design, size)

@@ -16,18 +16,19 @@ from pathlib import Path
 
 import numpy as np
 
+from pnmold.conventions import ORIENTATIONS, RECORDING_KINDS
 from pnmold.errors import RecordingError
 from pnmold.fsutil import write_text
 
 VERSION = "1"
-KINDS = {
+#: kind -> (required columns, optional columns) (CONTRACTS.md §4)
+COLUMNS = {
     "bending": (("pressure_kpa", "tip_x_mm", "tip_z_mm"), ("bend_angle_deg", "cycle", "phase", "time_s")),
     "pv": (("volume_ml", "pressure_kpa"), ("cycle", "phase", "time_s")),
     "force": (("pressure_kpa", "force_n"), ("cycle", "phase")),
     "step": (("time_s", "supply_kpa", "pressure_kpa"),
              ("flow_slpm", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "pressure_far_kpa", "volume_ml")),
 }
-ORIENTATIONS = ("chambers_up", "chambers_down", "horizontal", "submerged")
 PHASES = ("inflate", "deflate")
 #: quantity -> the one unit pnmold reads it in (checked on column names)
 UNITS = {"pressure": "kpa", "supply": "kpa", "tip_x": "mm", "tip_z": "mm", "volume": "ml", "force": "n",
@@ -95,13 +96,13 @@ def _check_metadata(meta: dict[str, str], path: str, columns: list[str]) -> str:
         raise RecordingError(path, 1, f"pnmold-recording version {version!r}; this pnmold reads version {VERSION}")
     kind = meta.get("kind")
     if kind is None:
-        fits = [k for k, (req, _) in KINDS.items() if set(req) <= set(columns)]
+        fits = [k for k, (req, _) in COLUMNS.items() if set(req) <= set(columns)]
         if len(fits) != 1:
             raise RecordingError(path, 1, "no '# kind: ...' line and the columns do not tell the kind "
-                                 f"(kinds: {', '.join(KINDS)})")
+                                 f"(kinds: {', '.join(RECORDING_KINDS)})")
         kind = fits[0]
-    if kind not in KINDS:
-        raise RecordingError(path, 1, f"unknown kind {kind!r}; kinds: {', '.join(KINDS)}")
+    if kind not in RECORDING_KINDS:
+        raise RecordingError(path, 1, f"unknown kind {kind!r}; kinds: {', '.join(RECORDING_KINDS)}")
     orientation = meta.get("orientation")
     if orientation is not None and orientation not in ORIENTATIONS:
         raise RecordingError(path, 1, f"unknown orientation {orientation!r}; one of {', '.join(ORIENTATIONS)}")
@@ -121,18 +122,24 @@ def _column(header: list[str], name: str) -> str:
     return f"{header.index(name) + 1} ({name})"
 
 
-def _cell(text: str, path: str, line: int, name: str, column: str) -> float | str:
-    if name in _TEXT_COLUMNS:
-        value = text.strip().lower()
-        if value not in PHASES:
-            raise RecordingError(path, line, f"phase must be inflate or deflate, got {text!r}", column=column)
-        return value
+def finite_number(text: str, path: str, line: int, column: str | int | None = None) -> float:
+    """A data file's cell as a finite number; RecordingError names the file, line and column."""
     try:
         value = float(text)
     except ValueError:
         raise RecordingError(path, line, f"not a number: {text!r}", column=column) from None
     if not math.isfinite(value):
         raise RecordingError(path, line, f"not a finite number: {text!r}", column=column)
+    return value
+
+
+def _cell(text: str, path: str, line: int, name: str, column: str) -> float | str:
+    if name in _TEXT_COLUMNS:
+        value = text.strip().lower()
+        if value not in PHASES:
+            raise RecordingError(path, line, f"phase must be inflate or deflate, got {text!r}", column=column)
+        return value
+    value = finite_number(text, path, line, column)
     if name == "cycle" and (value < 1 or not value.is_integer()):
         raise RecordingError(path, line, f"cycle counts 1, 2, 3...: got {text!r}", column=column)
     return value
@@ -166,7 +173,7 @@ def read_recording(path: str | Path) -> Recording:
         if problem:
             raise RecordingError(p, header_line, problem, column=f"{i} ({name})")
     kind = _check_metadata(meta, p, header)
-    required, optional = KINDS[kind]
+    required, optional = COLUMNS[kind]
     missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(p, header_line, f"a {kind} recording needs column(s) {', '.join(missing)}",
@@ -210,7 +217,7 @@ def _data_line(rows: list[list[str]], header_line: int, index: int) -> int:
 
 def format_recording(kind: str, columns: dict[str, np.ndarray], metadata: dict[str, str] | None = None) -> str:
     """The CSV text of a recording (metadata first, ``# pnmold-recording: 1``)."""
-    if kind not in KINDS:
+    if kind not in RECORDING_KINDS:
         raise RecordingError("<new recording>", None, f"unknown kind {kind!r}")
     meta = {"pnmold-recording": VERSION, "kind": kind, **(metadata or {})}
     out = [f"# {k}: {v}" for k, v in meta.items()]

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pnmold.fsutil import write_bytes
 from pnmold.layout import CAST_PARTS, MOLDS, USES
 
 #: the parts in the order a person reads them
@@ -213,8 +214,7 @@ def _serve(folder: str) -> None:
         except (OSError, ValueError, KeyError, RuntimeError) as err:
             Path(folder, f"{key}.err").write_text(f"{type(err).__name__}: {err}")
             continue
-        Path(folder, f"{key}.png.part").write_bytes(data)
-        os.replace(Path(folder, f"{key}.png.part"), Path(folder, f"{key}.png"))
+        write_bytes(Path(folder, f"{key}.png"), data)
 
 
 if __name__ == "__main__":

@@ -18,18 +18,20 @@ columns (seeded).
 from __future__ import annotations
 
 import math
-import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from pnmold.conventions import NO_GRAVITY, QUASI_STATIC_KINDS, check_orientation, full_bend_crossing
 from pnmold.design import Design, digest
 from pnmold.errors import UsageError
+from pnmold.tetmesh import MeshSize
 
 SCHEMA = "pnmold.simulation/1"
-KINDS = ("bending", "pv", "force")
+MODELS = ("fe", "rom")
 _STEP_KEYS = ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml", "max_principal_stretch")
 
 
@@ -43,6 +45,81 @@ class SimulationRequest:
     effects: tuple[tuple[str, float], ...] = ()
     rate_kpa_per_s: float | None = None
     mesh_size: tuple[float, float] | None = None  # FE mesh (wall, max) mm; None: the model's default
+
+    def __post_init__(self) -> None:
+        if self.model not in MODELS:
+            raise UsageError(f"--model: one of {', '.join(MODELS)}, got {self.model!r}")
+        if self.kind not in QUASI_STATIC_KINDS:
+            raise UsageError(f"--kind: one of {', '.join(QUASI_STATIC_KINDS)}, got {self.kind!r}")
+        if self.cycles < 1:
+            raise UsageError("--cycles must be at least 1")
+        if self.rate_kpa_per_s is not None and not (self.rate_kpa_per_s > 0 and math.isfinite(self.rate_kpa_per_s)):
+            raise UsageError(f"--rate-kpa-per-s must be > 0, got {self.rate_kpa_per_s:g}")
+        check_orientation(self.orientation)
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Seeded Gaussian noise of a synthetic recording (standard deviations: tip mm, volume mL, force N)."""
+
+    mm: float = 0.0
+    ml: float = 0.0
+    n: float = 0.0
+    seed: int | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("mm", "ml", "n"):
+            if not (getattr(self, name) >= 0 and math.isfinite(getattr(self, name))):
+                raise UsageError(f"--noise-{name}: must be >= 0, got {getattr(self, name):g}")
+
+    def __bool__(self) -> bool:
+        return bool(self.mm or self.ml or self.n)
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """A simulation's document (``pnmold.simulation/1``) and the files written."""
+
+    doc: dict[str, Any]
+    written: tuple[Path, ...] = ()
+
+
+def simulate(design: Design, request: SimulationRequest, *, json_path: str | Path | None = None,
+             recording_path: str | Path | None = None, noise: Noise | None = None,
+             progress: Callable[[str], None] | None = None) -> Simulation:
+    """Solve the request with its model (``rom`` characterises the design first, cached, with
+    ``progress``) and write the JSON and/or the recording (with ``noise``), atomically."""
+    from pnmold.fsutil import write_json
+    from pnmold.recording import write_recording
+
+    if request.model == "rom":
+        from pnmold.physics.characterise import characterise
+
+        doc = simulate_rom(design, request, characterise(design, size=_mesh_size(request, None, rom=True),
+                                                          progress=progress))
+    else:
+        doc = simulate_fe(design, request)
+    written = []
+    if json_path:
+        written.append(write_json(json_path, doc))
+    if recording_path:
+        noise = noise or Noise()
+        columns = noisy_columns(recording_columns(doc), noise_mm=noise.mm, noise_ml=noise.ml, noise_n=noise.n,
+                                seed=noise.seed)
+        written.append(write_recording(recording_path, request.kind, columns, recording_metadata(doc, request, noise)))
+    return Simulation(doc, tuple(written))
+
+
+def recording_metadata(doc: dict[str, Any], request: SimulationRequest, noise: Noise) -> dict[str, str]:
+    """The metadata a synthetic recording carries: design, orientation, model, effects, rate, noise."""
+    meta = {"design": doc["design"]["name"], "orientation": request.orientation, "model": doc["model"]}
+    if request.effects:
+        meta["effects"] = ",".join(f"{k}={v:g}" for k, v in request.effects)
+    if request.rate_kpa_per_s:
+        meta["rate_kpa_per_s"] = f"{request.rate_kpa_per_s:g}"
+    if noise:
+        meta["noise"] = f"mm={noise.mm:g};ml={noise.ml:g};n={noise.n:g};seed={noise.seed}"
+    return meta
 
 
 def parse_pressures(text: str) -> tuple[float, ...]:
@@ -76,52 +153,38 @@ def parse_effects(text: str | None) -> tuple[tuple[str, float], ...]:
     return tuple(out)
 
 
-def _mesh_size(request: SimulationRequest, default=None):
-    from pnmold.mesh import MeshSize
-
+def _mesh_size(request: SimulationRequest, default: MeshSize | None = None, rom: bool = False) -> MeshSize | None:
+    """The request's mesh; else ``default`` (the reduced model: the characterisation's own)."""
     if request.mesh_size is None:
-        return default or MeshSize()
+        return None if rom else (default or MeshSize())
     return MeshSize(*request.mesh_size)
 
 
 def simulate_fe(design: Design, request: SimulationRequest) -> dict[str, Any]:
     """Solve with the FE model; return the ``pnmold.simulation/1`` document."""
-    from pnmold.cad import export_parts, make_parts
-    from pnmold.fem import solve_bending, solve_blocked_force
-    from pnmold.mesh import MeshSize, mesh_actuator
-    from pnmold.physics.effects import design_for_fe
-    from pnmold.quickfe import gravity_vector, material_of, membrane_of
+    from pnmold.quickfe import run_fe
 
-    solved, g = design_for_fe(design, dict(request.effects))
-    orientation = "none" if g == 0 else request.orientation
-    unit = gravity_vector(solved, orientation)
-    gravity = None if unit is None else tuple(g * v for v in unit)
-    size = _mesh_size(request)
-    if gravity is not None and abs(gravity[1]) > 0 and size.half:
-        size = MeshSize(size.wall_mm, size.max_mm, size.band_mm, half=False)  # out of plane: the whole body
-    targets = [p for p in request.pressures_kpa if p > 0]
-    with tempfile.TemporaryDirectory() as tmp:
-        export_parts({"actuator": make_parts(solved)["actuator"]}, Path(tmp))
-        mesh, _ = mesh_actuator(Path(tmp) / "actuator.step", solved, size)
-    solve = solve_blocked_force if request.kind == "force" else solve_bending
-    sol = solve(mesh, material_of(solved), membrane_of(solved), pressures_kpa=targets, gravity=gravity)
+    run = run_fe(design, orientation=request.orientation, effects=dict(request.effects),
+                 pressures_kpa=request.pressures_kpa, kind="force" if request.kind == "force" else "bending",
+                 size=_mesh_size(request))
+    sol = run.solution
     wanted = set(np.round(request.pressures_kpa, 6))
     inflate = [s.as_dict() for s in sol.steps if round(s.pressure_kpa, 6) in wanted]
     steps = _with_time(_cycled(inflate, request.cycles), request.rate_kpa_per_s)
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "fe",
-            "kind": request.kind, "orientation": orientation, "effects": dict(request.effects),
-            "steps": steps, "full_bend_pressure_kpa": sol.full_bend_pressure_kpa, "reason": sol.reason}
+            "kind": request.kind, "orientation": request.orientation if run.gravity_g else NO_GRAVITY,
+            "effects": dict(request.effects), "steps": steps, "full_bend_pressure_kpa": sol.full_bend_pressure_kpa,
+            "reason": sol.reason}
 
 
 def simulate_rom(design: Design, request: SimulationRequest, characterisation=None) -> dict[str, Any]:
     """Run the reduced model (characterising the design first, cached); the same document."""
+    from pnmold.effects import check_effects
     from pnmold.physics import Protocol, ReducedModel, characterise
-    from pnmold.physics.characterise import DEFAULT_SIZE
-    from pnmold.physics.effects import check_effects
 
     effects = check_effects(dict(request.effects), model="rom")
     if characterisation is None:
-        characterisation = characterise(design, size=_mesh_size(request, DEFAULT_SIZE))
+        characterisation = characterise(design, size=_mesh_size(request, rom=True))
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
                                        request.rate_kpa_per_s, request.orientation)
@@ -143,12 +206,8 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 
 def _full_bend(steps: list[dict[str, Any]]) -> tuple[float | None, str | None]:
     rows = [s for s in steps if s.get("phase", "inflate") == "inflate" and s.get("cycle", 1) == 1]
-    for a, b in zip(rows, rows[1:], strict=False):
-        if b["bend_angle_deg"] >= 360.0 > a["bend_angle_deg"]:
-            f = (360.0 - a["bend_angle_deg"]) / (b["bend_angle_deg"] - a["bend_angle_deg"])
-            return round(a["pressure_kpa"] + f * (b["pressure_kpa"] - a["pressure_kpa"]), 6), None
-    last = rows[-1]
-    return None, f"bend angle reached {last['bend_angle_deg']:.1f} deg at {last['pressure_kpa']:.4g} kPa"
+    fb, reason = full_bend_crossing([s["pressure_kpa"] for s in rows], [s["bend_angle_deg"] for s in rows])
+    return (None if fb is None else round(fb, 6)), reason
 
 
 def _cycled(inflate: list[dict[str, Any]], cycles: int) -> list[dict[str, Any]]:

@@ -8,6 +8,7 @@ import pytest
 
 from pnmold.cad import PART_NAMES
 from pnmold.cli import main
+from pnmold.cli._main import VERBS
 from pnmold.errors import GeometryError
 from tests.test_design import INVALID
 
@@ -75,7 +76,7 @@ def test_templates_lists_each_template(capsys):
         assert name in out
 
 
-@pytest.mark.parametrize("verb", ["build", "templates"])
+@pytest.mark.parametrize("verb", list(VERBS))
 def test_help_on_every_verb(verb, capsys):
     assert main([verb, "--help"]) == 0
     assert "usage" in capsys.readouterr().out
@@ -107,3 +108,28 @@ def test_material_fit_refuses_damaged_files_with_file_and_line(text, tmp_path, c
     err = capsys.readouterr().err
     assert "bad.csv" in err and "line" in err
     assert not json_out.exists()
+
+
+def test_version_and_the_output_flags_on_either_side_of_the_verb(capsys):
+    assert main(["--version"]) == 0
+    assert "pnmold 0." in capsys.readouterr().out
+    for argv in (["-q", "effects"], ["effects", "-q"], ["effects", "--quiet", "-v"]):
+        assert main(argv) == 0
+
+
+@pytest.mark.parametrize(("raised", "code"), [(RuntimeError("a bug"), 70), (KeyboardInterrupt(), 130)],
+                         ids=["unexpected", "interrupted"])
+def test_unexpected_errors_and_ctrl_c_have_their_own_exit_codes(raised, code, monkeypatch, capsys):
+    from pnmold.cli import templates
+
+    def boom(args):
+        raise raised
+
+    monkeypatch.setattr(templates, "run", boom)
+    assert main(["templates"]) == code
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    if code == 70:
+        assert "unexpected error (RuntimeError): a bug" in err and "-v" in err
+        assert main(["templates", "-v"]) == 70
+        assert "Traceback" in capsys.readouterr().err

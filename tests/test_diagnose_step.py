@@ -1,7 +1,8 @@
-"""``pnmold diagnose`` on ``step`` recordings: the compiled step model against
-``simulate_step``, the protocol read from a recording, the routing of effects in mixed
-diagnoses, and (slow) a small fixed subset of ``benchmarks/diagnose_blind_step.py`` on the
-fPN with the JSON contract of a step diagnosis."""
+"""``pnmold diagnose`` on ``step`` recordings: the step model at the diagnosis's tolerances
+replaying ``simulate_step``'s recordings (the same compiled model, tighter), the protocol and
+the bench read from a recording, the routing of effects in mixed diagnoses, and (slow) a
+small fixed subset of ``benchmarks/diagnose_blind_step.py`` on the fPN with the JSON
+contract of a step diagnosis."""
 
 from __future__ import annotations
 
@@ -12,9 +13,9 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.design import load_design
-from pnmold.diagnose.dynamic import StepModel, StepProtocol
 from pnmold.errors import RecordingError
-from pnmold.pneumatics import ActuatorLine, BendingDynamics, Rig, simulate_step
+from pnmold.pneumatics import ActuatorLine, BendingDynamics, Orifice, Rig, StepModel, StepProtocol, simulate_step
+from pnmold.pneumatics.study import recording_metadata
 from pnmold.recording import Recording
 from tests.test_pneumatics import linear_law
 
@@ -28,7 +29,7 @@ def _recording(t, supply, meta=None, **cols) -> Recording:
     return Recording("rec.csv", "step", columns, dict(meta or {}))
 
 
-# -- the compiled model against the Radau model ---------------------------------------------
+# -- the diagnosis's step model against simulate_step ----------------------------------------
 @pytest.mark.parametrize(("effects", "scale"), [({}, 1.0), ({"dead_volume": 6.0}, 1.15),
                                                 ({"flow_restriction": 2.0}, 0.9)],
                          ids=["nominal", "dead_volume", "flow_restriction"])
@@ -47,6 +48,27 @@ def test_step_model_reproduces_simulate_step(effects, scale):
         span = float(np.ptp(cols[k]))
         assert span > 0
         assert np.max(np.abs(out[k] - cols[k])) < 1e-3 * span, k
+
+
+def test_the_bench_of_a_simulated_recording_is_read_back_whole():
+    """Valves, valve volume, tubing, atmosphere and temperature travel in the recording's
+    metadata; the replay matches only if every one reaches the model (defaults would not)."""
+    design = load_design("fpn")
+    law = linear_law()
+    valve = Orifice.from_diameter_mm(0.7, 0.3)
+    rig = Rig(150.0, valve, valve, tubing_length_mm=500.0, tubing_id_mm=1.2, valve_volume_ml=0.4,
+              atmosphere_kpa=85.0, temperature_k=308.0, vent_at_s=0.06)
+    ref = simulate_step(law, ActuatorLine.from_design(design), BendingDynamics.from_design(design), rig,
+                        duration_s=0.12)
+    cols = {k: ref.series[k][::4] for k in ("time_s", "supply_kpa", *OBSERVED, *EXTRAS)}
+    meta = {k: str(v) for k, v in recording_metadata(design, rig, {}).items()}
+    model = StepModel(design, law)
+    replay = model.run(StepProtocol.from_recording(Recording("sim.csv", "step", cols, meta)))
+    default = model.run(StepProtocol.from_recording(Recording("sim.csv", "step", cols, {})))
+    for k in (*OBSERVED, *EXTRAS):
+        span = float(np.ptp(cols[k]))
+        assert np.max(np.abs(replay[k] - cols[k])) < 1e-3 * span, k
+    assert np.max(np.abs(default["pressure_kpa"] - cols["pressure_kpa"])) > 0.05 * np.ptp(cols["pressure_kpa"])
 
 
 def test_effects_and_calibration_move_the_step_response_their_own_way():

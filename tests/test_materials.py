@@ -179,7 +179,7 @@ DAMAGED = {
     "wrong-columns": ("strain,stress\n" + GOOD_ROWS, 1, "eng_strain", "missing column"),
     "missing-stress": ("eng_strain,force_n\n" + GOOD_ROWS, 1, "eng_stress_mpa", "eng_stress_mpa"),
     "non-number": ("eng_strain,eng_stress_MPa\n0.1,0.02\n0.2,abc\n0.3,0.06\n0.4,0.08\n", 3, "eng_stress_MPa",
-                   "'abc' is not a number"),
+                   "not a number: 'abc'"),
     "nan": ("eng_strain,eng_stress_MPa\n0.1,0.02\n0.2,0.04\nnan,0.06\n0.4,0.08\n", 4, "eng_strain", "finite"),
     "inf": ("eng_strain,eng_stress_MPa\n0.1,0.02\n0.2,inf\n0.3,0.06\n0.4,0.08\n", 3, "eng_stress_MPa", "finite"),
     "negative-strain": ("# c\neng_strain,eng_stress_MPa\n0.1,0.02\n-0.2,-0.04\n0.3,0.06\n0.4,0.08\n", 4,

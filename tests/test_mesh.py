@@ -9,8 +9,8 @@ import gmsh
 import numpy as np
 import pytest
 
-from pnmold.mesh import MeshSize, boundary_facets, gmsh_session, mesh_actuator
-from pnmold.tetmesh import CAVITY, CLAMP, FREE_END, STRAIN_LIMITING_LAYER, SYMMETRY
+from pnmold.mesh import boundary_facets, gmsh_session, mesh_actuator
+from pnmold.tetmesh import CAVITY, CLAMP, FREE_END, STRAIN_LIMITING_LAYER, SYMMETRY, MeshSize
 from tests.closed_form import cavity_mm3, part_volumes_mm3
 
 

@@ -10,10 +10,10 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.design import load_design
-from pnmold.mesh import MeshSize
 from pnmold.pipeline import build
 from pnmold.quickfe import BUILD_MESH, run_fe
 from pnmold.recording import read_recording
+from pnmold.tetmesh import MeshSize
 
 COARSE = MeshSize(3.5, 7.0)  # trends only need the ordering, not the last percent
 
@@ -39,7 +39,7 @@ def exported(tmp_path_factory):
 
 def _curve(exported, name, *overrides, size=COARSE, **kwargs):
     design, step = exported(name, *overrides)
-    return run_fe(design, step, size=size, orientation="none", **kwargs).solution
+    return run_fe(design, step_path=step, size=size, orientation="none", **kwargs).solution
 
 
 @pytest.mark.slow

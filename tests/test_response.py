@@ -115,7 +115,7 @@ def test_a_volume_factor_moves_the_volume_and_not_the_shape(fpn):
 def test_a_stretch_moves_the_tip_along_the_same_bend(fpn):
     """A variant with the nominal bend and volume whose tip is 1 % further from the clamp's end:
     the free edges stretch 1 %, the clamped part keeps its length, the bend is the same."""
-    from pnmold.physics.characterise import chamber_bounds_mm
+    from pnmold.physics.identify import chamber_bounds_mm
 
     c = characterisation_from_steps(STEPS, fpn)
     x_clamp = chamber_bounds_mm(fpn)[1]

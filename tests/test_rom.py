@@ -20,11 +20,11 @@ import numpy as np
 import pytest
 
 from pnmold.design import load_design
-from pnmold.errors import DesignError
-from pnmold.mesh import MeshSize
+from pnmold.errors import DesignError, SolveError
 from pnmold.physics import Characterisation, Protocol, ReducedModel, characterisation_from_steps, characterise
 from pnmold.physics.rod import RodLoads, solve_rod, structured_solve
 from pnmold.recording import read_recording, write_recording
+from pnmold.tetmesh import MeshSize
 from tests.conftest import STEPS, TEMPLATES
 
 COARSE = MeshSize(3.5, 7.0)
@@ -68,7 +68,7 @@ def test_characterisation_round_trips_and_the_cache_is_read(tmp_path, monkeypatc
     write_json(cache_path(fpn, COARSE, 150.0), c.to_json())
     got = characterise(fpn, size=COARSE)
     assert got.source == "steps" and not got.variants  # read, not solved (a solve's source is "fe")
-    with pytest.raises(ValueError):
+    with pytest.raises(SolveError, match="at least two steps"):
         characterisation_from_steps(STEPS[:1])
 
 
@@ -115,10 +115,13 @@ def test_a_cached_fe_characterisation_gains_only_its_missing_variant_runs(tmp_pa
 def test_sections_weigh_the_exported_actuator(built, name):
     """The rod's weight comes from the design's sections: their volume is the exported part's (the
     inlet bore and the paper stops' dimples, 0.2 %, left out)."""
-    from pnmold.physics.section import volume_mm3
+    from pnmold.physics.section import interval_integrals
 
     exported = built(name).report["parts"]["actuator"]["volume_mm3"]
-    assert volume_mm3(load_design(name)) == pytest.approx(exported, rel=0.004)
+    design = load_design(name)
+    sections = interval_integrals(design, np.array([0.0, design.length_mm]))["volume_mm3"][0]
+    assert sections == pytest.approx(exported, rel=0.004)
+    assert sections == pytest.approx(design.elastomer_volume_mm3, rel=0.004)
 
 
 # -- the rod ---------------------------------------------------------------------------------------
@@ -304,7 +307,7 @@ def test_rom_follows_the_fe_with_gravity_within_5_percent(live, name):
     from pnmold.quickfe import run_fe
 
     design, c, step = live(name)
-    fe = run_fe(design, step, size=COARSE, orientation="chambers_up",
+    fe = run_fe(design, step_path=step, size=COARSE, orientation="chambers_up",
                 max_pressure_kpa=FE_PRESSURE_KPA[name]).solution
     p = np.array([s.pressure_kpa for s in fe.steps])
     out = ReducedModel.for_design(design, c).run(Protocol("bending", p, "chambers_up"))
@@ -325,12 +328,11 @@ def test_the_reduced_model_carries_the_fe_response_at_other_values(live, name, e
     against the reduced model reading the variants: the change over the nominal, in bend, cavity
     volume and tip position, within 20 % of the FE's largest change at every step; and the effect
     shows (``shows``: degrees, ml). The sPN's layer bends it less and lengthens it."""
-    from pnmold.physics.effects import design_for_fe
     from pnmold.quickfe import run_fe
 
     design, c, step = live(name)
-    solved, _ = design_for_fe(design, {effect: value})
-    fe = run_fe(solved, step, size=COARSE, orientation="none", pressures_kpa=c.pressure_kpa[1:].tolist()).solution
+    fe = run_fe(design, step_path=step, size=COARSE, orientation="none", effects={effect: value},
+                pressures_kpa=c.pressure_kpa[1:].tolist()).solution
     p = np.array([s.pressure_kpa for s in fe.steps])
     assert p[-1] == pytest.approx(c.pressure_kpa[-1])
     rom = ReducedModel(design, c)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import os
-import tempfile
 from pathlib import Path
 
 import cadquery as cq
@@ -12,6 +11,7 @@ import cadquery as cq
 from pnmold.cad import molds, parts
 from pnmold.design import Design
 from pnmold.errors import ExportError
+from pnmold.fsutil import atomic_path
 from pnmold.layout import USES
 
 log = logging.getLogger(__name__)
@@ -42,19 +42,25 @@ def make_parts(design: Design) -> dict[str, cq.Shape]:
 
 def _atomic(path: Path, write) -> None:
     """Write through ``write(tmp_path)`` to a temporary name, then rename over ``path``."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
     try:
-        ok = write(tmp)
-        if ok is False or os.path.getsize(tmp) == 0:
-            raise ExportError(str(path), "the CAD kernel wrote nothing")
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            ok = write(str(tmp))
+            if ok is False or os.path.getsize(tmp) == 0:
+                raise ExportError(str(path), "the CAD kernel wrote nothing")
     except ExportError:
-        Path(tmp).unlink(missing_ok=True)
         raise
     except Exception as err:
-        Path(tmp).unlink(missing_ok=True)
         raise ExportError(str(path), f"export failed: {err}") from err
+
+
+def export_actuator_step(design: Design, folder: str | Path) -> Path:
+    """Only the cast actuator, as ``folder/actuator.step``: what the FE meshes when no build
+    folder is at hand (the same solid a build exports)."""
+    shape = parts.actuator(design, parts.top_layer(design), parts.bottom_layer(design))
+    path = Path(folder) / "actuator.step"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _atomic(path, lambda tmp: cq.exporters.export(shape, tmp, exportType="STEP"))
+    return path
 
 
 def _write_stl(shape: cq.Shape, path: Path) -> None:

@@ -2,7 +2,9 @@
 
 from pnmold.design.load import (
     as_dict,
+    coerce_value,
     digest,
+    field_type,
     list_templates,
     load_design,
     templates_dir,
@@ -11,5 +13,5 @@ from pnmold.design.load import (
 from pnmold.design.model import SECTIONS, Design
 from pnmold.design.rules import validate
 
-__all__ = ["Design", "SECTIONS", "as_dict", "digest", "list_templates", "load_design",
+__all__ = ["Design", "SECTIONS", "as_dict", "coerce_value", "digest", "field_type", "list_templates", "load_design",
            "templates_dir", "to_toml", "validate"]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import tomllib
 from pathlib import Path
@@ -36,20 +37,24 @@ def list_templates() -> dict[str, str]:
     return out
 
 
-def _field_type(section: str, key: str) -> type:
+def field_type(field: str) -> type:
+    """The type (int, float, str) of design field ``section.key``; DesignError names an unknown one."""
+    section, _, key = field.partition(".")
+    if section not in SECTIONS:
+        raise DesignError(field, f"unknown section; valid sections: {', '.join(SECTIONS)}")
     for f in dataclasses.fields(SECTIONS[section]):
         if f.name == key:
             return _TYPES[f.type] if isinstance(f.type, str) else f.type
     valid = ", ".join(f.name for f in dataclasses.fields(SECTIONS[section]))
-    raise DesignError(f"{section}.{key}", f"unknown key; valid keys of [{section}]: {valid}")
+    raise DesignError(field, f"unknown key; valid keys of [{section}]: {valid}")
 
 
-def _coerce(section: str, key: str, value: Any) -> Any:
-    kind = _field_type(section, key)
-    where = f"{section}.{key}"
-    if kind is str:
-        if not isinstance(value, str):
-            raise DesignError(where, f"must be a string, got {value!r}")
+def coerce_value(where: str, kind: type, value: Any) -> Any:
+    """``value`` as ``kind`` (int, float, str or bool), the one coercion of every file pnmold reads
+    (designs, overrides, sweep files): ints stay ints, numbers become finite floats, no bools."""
+    if kind is str or kind is bool:
+        if not isinstance(value, kind):
+            raise DesignError(where, f"must be {'a string' if kind is str else 'true or false'}, got {value!r}")
         return value
     if isinstance(value, bool):
         raise DesignError(where, f"must be a number, got {value!r}")
@@ -61,6 +66,8 @@ def _coerce(section: str, key: str, value: Any) -> Any:
         return value
     if not isinstance(value, int | float):
         raise DesignError(where, f"must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise DesignError(where, f"must be finite, got {value!r}")
     return float(value)
 
 
@@ -71,7 +78,7 @@ def _apply(design: Design, table: dict[str, Any], origin: str) -> Design:
             raise DesignError(section, f"unknown section in {origin}; valid sections: {valid}")
         if not isinstance(values, dict):
             raise DesignError(section, f"must be a table [{section}] in {origin}")
-        changes = {k: _coerce(section, k, v) for k, v in values.items()}
+        changes = {k: coerce_value(f"{section}.{k}", field_type(f"{section}.{k}"), v) for k, v in values.items()}
         design = design.replace(section, **changes)
     return design
 
@@ -84,7 +91,7 @@ def parse_override(text: str) -> tuple[str, str, Any]:
     section, key = (s.strip() for s in lhs.split(".", 1))
     if section not in SECTIONS:
         raise DesignError(lhs, f"unknown section; valid sections: {', '.join(SECTIONS)}")
-    kind = _field_type(section, key)
+    kind = field_type(f"{section}.{key}")
     raw = raw.strip()
     try:
         value = tomllib.loads(f"v = {raw}")["v"]

@@ -16,6 +16,8 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from pnmold.materials.library import ELASTOSIL
+
 KINDS = ("fpn", "spn")
 
 
@@ -124,16 +126,16 @@ class Mold:
 
 @dataclass(frozen=True)
 class Material:
-    name: str = _f("Elastosil M4601", "elastomer", SUPPLEMENT)
-    c10_mpa: float = _f(0.11, "Yeoh C10", SUPPLEMENT + ": C10 = 0.11 MPa")
-    c20_mpa: float = _f(0.02, "Yeoh C20", SUPPLEMENT + ": C20 = 0.02 MPa")
-    c30_mpa: float = _f(0.0, "Yeoh C30", SUPPLEMENT + ": C30 = 0")
-    density_g_per_ml: float = _f(
-        1.13,
-        "density of the cured elastomer",
-        "Wacker ELASTOSIL M 4601 A/B datasheet: 1.13 g/cm3",
-    )
-    mix_ratio_a_to_b: float = _f(9.0, "part A : part B by weight", "Wacker ELASTOSIL M 4601 A/B datasheet: 9:1")
+    """The elastomer; defaults: the library's Elastosil M4601 (the supplement's), with its sources."""
+
+    name: str = _f(ELASTOSIL.name, "elastomer", ELASTOSIL.source("name"))
+    c10_mpa: float = _f(ELASTOSIL.c10_mpa, "Yeoh C10", ELASTOSIL.source("c10_mpa"))
+    c20_mpa: float = _f(ELASTOSIL.c20_mpa, "Yeoh C20", ELASTOSIL.source("c20_mpa"))
+    c30_mpa: float = _f(ELASTOSIL.c30_mpa, "Yeoh C30", ELASTOSIL.source("c30_mpa"))
+    density_g_per_ml: float = _f(ELASTOSIL.density_g_per_ml, "density of the cured elastomer",
+                                 ELASTOSIL.source("density_g_per_ml"))
+    mix_ratio_a_to_b: float = _f(ELASTOSIL.mix_ratio_a_to_b, "part A : part B by weight",
+                                 ELASTOSIL.source("mix_ratio_a_to_b"))
 
 
 @dataclass(frozen=True)
@@ -242,6 +244,24 @@ class Design:
         return self.top_z0_mm + self.top_height_mm
 
     # -- channel and inlet ------------------------------------------------------------
+    @property
+    def clamp_end_mm(self) -> float:
+        """x where the proximal chamber (its cavity and distal wall) ends: the clamp's extent
+        (supplement: "zero displacements at the top and bottom face of the proximal pneu-net chamber")."""
+        return self.cavity_x_mm(0)[1] + self.chambers.inside_wall_mm
+
+    @property
+    def elastomer_volume_mm3(self) -> float:
+        """Solid volume of the cast actuator: the envelope less the chambers, the channel and the
+        fPN gaps (the inlet bore, about 0.1 % of it, and the paper are left out)."""
+        c, ch = self.chambers, self.channel
+        envelope = self.length_mm * self.width_mm * self.height_mm
+        cavities = c.count * c.length_mm * c.width_mm * c.height_mm
+        x0, x1 = self.channel_x_mm
+        channel = (x1 - x0 - c.count * c.length_mm) * ch.width_mm * ch.height_mm
+        gaps = (c.count - 1) * self.gap_mm * self.width_mm * (self.top_height_mm - self.top_layer.floor_mm)
+        return envelope - cavities - channel - gaps
+
     @property
     def channel_x_mm(self) -> tuple[float, float]:
         """The channel starts halfway into the end wall and ends in the last cavity."""

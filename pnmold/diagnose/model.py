@@ -1,5 +1,5 @@
 """The diagnosis's forward models (the reduced model for quasi-static recordings, the compiled
-step model of :mod:`.dynamic` for ``step`` recordings) and reading the user's recordings."""
+step model of :mod:`pnmold.pneumatics.model` for ``step`` recordings) and reading the user's recordings."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def read_all(paths: Sequence[str | Path]) -> list[Recording]:
 
 def candidate_effects(recordings: Sequence[Recording], model: str = "rom") -> list:
     """Catalogue entries the model carries that show in at least one recorded kind."""
-    from pnmold.physics.effects import EFFECTS
+    from pnmold.effects import EFFECTS
 
     kinds = {r.kind for r in recordings}
     return [e for e in EFFECTS.values() if model in e.models and kinds & set(e.kinds)]
@@ -30,7 +30,7 @@ def candidate_effects(recordings: Sequence[Recording], model: str = "rom") -> li
 def rom_forward(design: Design, recordings: Sequence[Recording]) -> Forward:
     """forward(effects, calibration) on the reduced model: every catalogued effect off
     unless given (the baseline is the nominal model without any effect)."""
-    from pnmold.physics.effects import EFFECTS
+    from pnmold.effects import EFFECTS
     from pnmold.physics.protocol import Protocol
     from pnmold.physics.rom import ReducedModel
 
@@ -54,7 +54,7 @@ def diagnosis_effects(recordings: Sequence[Recording]) -> list:
     ``flow_restriction``), judged on the step recordings."""
     if not has_step(recordings):
         return candidate_effects(recordings)
-    from pnmold.physics.effects import EFFECTS
+    from pnmold.effects import EFFECTS
 
     quasi = [r for r in recordings if r.kind != "step"]
     rom = candidate_effects(quasi) if quasi else []
@@ -69,9 +69,8 @@ def diagnosis_forward(design: Design, recordings: Sequence[Recording]) -> Forwar
     the recordings whose model carries it."""
     if not has_step(recordings):
         return rom_forward(design, recordings)
-    from pnmold.physics.effects import EFFECTS
-
-    from .dynamic import StepModel, StepProtocol
+    from pnmold.effects import EFFECTS
+    from pnmold.pneumatics import StepModel, StepProtocol
 
     steps = [i for i, r in enumerate(recordings) if r.kind == "step"]
     quasi = [i for i, r in enumerate(recordings) if r.kind != "step"]

@@ -11,6 +11,7 @@ its ``_call_pardiso`` directly.
 from __future__ import annotations
 
 import logging
+import os
 
 import numpy as np
 import scipy.sparse as sp
@@ -22,10 +23,21 @@ from ..errors import SolveError
 log = logging.getLogger(__name__)
 
 _REAL_SYMMETRIC_INDEFINITE = -2
+
+
+def _cores() -> int:
+    """The cores this process may run on (the affinity mask where the system has one)."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
 #: PARDISO iparm (1-based): own settings; METIS ordering; no iterative refinement (Newton
 #: corrects the rare inaccurate solve, and refinement costs more than a solve); 1e-8 pivot
-#: perturbation and Bunch-Kaufman 1x1/2x2 pivoting (the symmetric-indefinite defaults).
-_IPARM = {1: 1, 2: 2, 8: 0, 10: 8, 11: 0, 13: 0, 21: 1}
+#: perturbation and Bunch-Kaufman 1x1/2x2 pivoting (the symmetric-indefinite defaults);
+#: conditional numerical reproducibility (iparm 34) for this machine's cores: without it MKL
+#: may factor on fewer threads when the machine is busy, in another order of summation, and
+#: the adaptive load stepping turns that round-off into another curve (a characterisation
+#: rerun gave 35 steps instead of 34). With it, 1 and 2 threads give the same bits.
+_IPARM = {1: 1, 2: 2, 8: 0, 10: 8, 11: 0, 13: 0, 21: 1, 34: _cores()}
 
 
 class Pardiso:

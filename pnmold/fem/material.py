@@ -36,6 +36,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import DesignError
+from ..materials.library import ELASTOSIL
 
 #: Mass density to force density: 1 g/mL under 1 g, in N/mm^3.
 G_STANDARD_N_PER_MM3_PER_G_PER_ML = 9.80665e-6
@@ -49,16 +50,16 @@ class Yeoh:
 
     Parameters
     ----------
-    c10_mpa, c20_mpa, c30_mpa : Yeoh constants (supplement: 0.11, 0.02, 0 MPa).
-    density_g_per_ml : mass density (Wacker Elastosil M4601 datasheet: 1.13 g/mL).
+    c10_mpa, c20_mpa, c30_mpa : Yeoh constants (default: the library's Elastosil M4601).
+    density_g_per_ml : mass density (g/mL).
     bulk_ratio : K / mu of the volumetric penalty, mu = 2 C10.
     volumetric : ``"mean_dilatation"`` (P2/P0, default) or ``"penalty"`` (pointwise).
     """
 
-    c10_mpa: float = 0.11
-    c20_mpa: float = 0.02
-    c30_mpa: float = 0.0
-    density_g_per_ml: float = 1.13
+    c10_mpa: float = ELASTOSIL.c10_mpa
+    c20_mpa: float = ELASTOSIL.c20_mpa
+    c30_mpa: float = ELASTOSIL.c30_mpa
+    density_g_per_ml: float = ELASTOSIL.density_g_per_ml
     bulk_ratio: float = 200.0
     volumetric: str = "mean_dilatation"
 

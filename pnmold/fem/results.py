@@ -14,11 +14,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from ..conventions import full_bend_crossing
 from ..errors import MeshingError
 from ..tetmesh import CLAMP, FREE_END
 from .model import Evaluation, Model
-
-FULL_BEND_DEG = 360.0
 
 
 @dataclass(frozen=True)
@@ -73,15 +72,7 @@ class Solution:
 
 def full_bend_pressure(steps: tuple[Step, ...] | list[Step]) -> tuple[float | None, str | None]:
     """Pressure where the bend angle first reaches 360 degrees, or (None, reason)."""
-    for prev, cur in zip(steps, steps[1:], strict=False):
-        if cur.bend_angle_deg >= FULL_BEND_DEG > prev.bend_angle_deg:
-            s = (FULL_BEND_DEG - prev.bend_angle_deg) / (cur.bend_angle_deg - prev.bend_angle_deg)
-            return prev.pressure_kpa + s * (cur.pressure_kpa - prev.pressure_kpa), None
-    if not steps:
-        return None, "no converged step"
-    last = steps[-1]
-    return None, (f"bend angle reached {last.bend_angle_deg:.1f} deg at "
-                  f"{last.pressure_kpa:.4g} kPa, the highest pressure solved")
+    return full_bend_crossing([s.pressure_kpa for s in steps], [s.bend_angle_deg for s in steps])
 
 
 def _wrap(angle: float) -> float:

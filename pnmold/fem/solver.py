@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..conventions import FULL_BEND_DEG
 from ..errors import DesignError, SolveError
 from ..tetmesh import CLAMP, SYMMETRY, TetMesh
 from .material import Membrane, Yeoh
 from .model import Load, Model
 from .newton import Newton, NewtonOptions, continuation
-from .results import FULL_BEND_DEG, Observer, Solution, Step, full_bend_pressure
+from .results import Observer, Solution, Step, full_bend_pressure
 
 log = logging.getLogger(__name__)
 

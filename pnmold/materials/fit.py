@@ -26,6 +26,7 @@ from scipy.optimize import least_squares
 
 from pnmold.errors import RecordingError, UsageError
 from pnmold.fsutil import write_json
+from pnmold.recording import finite_number
 
 log = logging.getLogger(__name__)
 
@@ -58,16 +59,6 @@ class TensileData:
     mode: tuple[str, ...]
     path: str
     lines: tuple[int, ...]
-
-
-def _number(text: str, path: str, line: int, column: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise RecordingError(path, line, f"{text.strip()!r} is not a number", column=column) from None
-    if not math.isfinite(value):
-        raise RecordingError(path, line, f"{text.strip()!r} is not a finite number", column=column)
-    return value
 
 
 def _header(rows: list[tuple[int, list[str]]], path: str, n_lines: int) -> tuple[int, dict[str, int]]:
@@ -131,8 +122,8 @@ def read_tensile(path: str | Path) -> TensileData:
         if len(cells) <= need:
             raise RecordingError(path, line, f"{len(cells)} values, the header has {len(rows[0][1])}",
                                  column=names[len(cells)] if len(cells) in names else None)
-        e = _number(cells[index[_STRAIN]], path, line, names[index[_STRAIN]])
-        s = _number(cells[index[_STRESS]], path, line, names[index[_STRESS]])
+        e = finite_number(cells[index[_STRAIN]], path, line, names[index[_STRAIN]])
+        s = finite_number(cells[index[_STRESS]], path, line, names[index[_STRESS]])
         mode = cells[index[_MODE]].strip().lower() if has_mode else "tension"
         col = names[index[_STRAIN]]
         if mode not in ("tension", "compression"):

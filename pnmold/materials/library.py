@@ -70,7 +70,7 @@ class Material:
         return self.sources.get(field_name, "assumed")
 
 
-_ELASTOSIL = Material(
+ELASTOSIL = Material(
     name="Elastosil M4601",
     c10_mpa=0.11, c20_mpa=0.02, c30_mpa=0.0,
     density_g_per_ml=1.13, mix_ratio_a_to_b=9.0, mix_by="weight",
@@ -149,7 +149,8 @@ _DRAGON_SKIN = Material(
     },
 )
 
-_MATERIALS = (_ELASTOSIL, _ECOFLEX, _DRAGON_SKIN)
+#: the default elastomer of a design and of the FE (the supplement's)
+_MATERIALS = (ELASTOSIL, _ECOFLEX, _DRAGON_SKIN)
 
 
 def _key(name: str) -> str:

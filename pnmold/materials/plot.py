@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +9,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from pnmold.errors import ExportError
+from pnmold.fsutil import atomic_path
 
 _UNITS = {"mpa": " MPa"}
 
@@ -49,16 +48,9 @@ def plot_fit(data, result, path: str | Path) -> Path:
     ax.set_title(Path(result.source).name, fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format="png")
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png")
     except OSError as err:
-        Path(tmp).unlink(missing_ok=True)
         raise ExportError(str(path), f"could not write the plot: {err}") from err
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path

@@ -15,10 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pnmold.conventions import NO_GRAVITY, ORIENTATIONS, QUASI_STATIC_KINDS
 from pnmold.errors import DesignError
-
-KINDS = ("bending", "pv", "force")
-ORIENTATIONS = ("chambers_up", "chambers_down", "horizontal", "submerged", "none")
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,10 +32,11 @@ class Protocol:
     rate_kpa_per_s: float | None = None
 
     def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise DesignError("protocol.kind", f"one of {', '.join(KINDS)}, got {self.kind!r}")
-        if self.orientation not in ORIENTATIONS:
-            raise DesignError("protocol.orientation", f"one of {', '.join(ORIENTATIONS)}, got {self.orientation!r}")
+        if self.kind not in QUASI_STATIC_KINDS:
+            raise DesignError("protocol.kind", f"one of {', '.join(QUASI_STATIC_KINDS)}, got {self.kind!r}")
+        if self.orientation not in (*ORIENTATIONS, NO_GRAVITY):
+            raise DesignError("protocol.orientation", f"one of {', '.join((*ORIENTATIONS, NO_GRAVITY))}, "
+                              f"got {self.orientation!r}")
         p = np.asarray(self.pressure_kpa, float)
         if p.ndim != 1 or p.size == 0 or not np.all(np.isfinite(p)):
             raise DesignError("protocol.pressure_kpa", "needs a 1-D sequence of finite pressures")

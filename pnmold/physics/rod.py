@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from pnmold.errors import SolveError
+from pnmold.errors import RodError
 
 _TOL_RAD = 1e-11
 #: Newton iterations of one attempt from the free shape; a row past a limit point never converges,
@@ -165,15 +165,6 @@ def _solve_rows(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarr
     nodes = node_positions(angle, length)
     m, _ = moments(nodes, angle, loads, gravity_xz if loaded else (0.0, 0.0), force)
     return RodState(angle, nodes, m, force, its)
-
-
-class RodError(SolveError):
-    """No equilibrium found for some rows (``rows``: their indices)."""
-
-    def __init__(self, rows: np.ndarray):
-        self.rows = rows
-        super().__init__(f"reduced model: no equilibrium of the rod for {len(rows)} row(s) (first: row {rows[0]}) "
-                         "after ramping the weight and starting from the previous row")
 
 
 def _equilibrium(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact, eta0, force0):

@@ -34,14 +34,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pnmold import effects as fx
+from pnmold.conventions import gravity_direction
 from pnmold.design import Design
-from pnmold.errors import DesignError, SolveError
-from pnmold.physics import effects as fx
-from pnmold.physics.characterise import Characterisation, chamber_bounds_mm, characterise, distinct_steps
+from pnmold.errors import DesignError, RodError, SolveError
+from pnmold.physics.characterisation import Characterisation, distinct_steps
+from pnmold.physics.characterise import characterise
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
+from pnmold.physics.identify import chamber_bounds_mm
 from pnmold.physics.protocol import Protocol
 from pnmold.physics.response import responses, solve_stiffened
-from pnmold.physics.rod import RodError, RodLoads, solve_rod
+from pnmold.physics.rod import RodLoads, solve_rod
 from pnmold.physics.section import rod_loads, slab_flexibility
 
 CALIBRATION = {"modulus_scale": (1.0, (0.2, 5.0))}  # name -> (nominal, bounds)
@@ -52,7 +55,6 @@ CALIBRATION = {"modulus_scale": (1.0, (0.2, 5.0))}  # name -> (nominal, bounds)
 REPRESENTATIVE_STRAIN = 0.12
 #: layer compliance: gain and strain scale of the lost stiffness share (see ``layer_softening``)
 LAYER_SHARE_GAIN, LAYER_STRAIN_SCALE = 0.75, 0.2
-WATER_DENSITY_G_PER_ML = 0.998
 
 
 @dataclass(frozen=True, eq=False)
@@ -188,14 +190,11 @@ class ReducedModel:
         return q, response["bend"](q["bend"], s), response["length"](q["bend"], s)
 
     def _gravity_xz(self, orientation: str, g: float) -> tuple[float, float]:
-        if g == 0 or orientation in ("none", "horizontal"):
+        """The in-plane (x, z) gravity of the orientation, in g (out of plane: none)."""
+        direction = gravity_direction(orientation, self.design.material.density_g_per_ml)
+        if g == 0 or direction is None:
             return (0.0, 0.0)
-        if orientation == "chambers_up":
-            return (0.0, -g)
-        if orientation == "chambers_down":
-            return (0.0, g)
-        net = 1.0 - WATER_DENSITY_G_PER_ML / self.design.material.density_g_per_ml
-        return (0.0, -g * net)
+        return (g * direction[0], g * direction[2])
 
     # -- the run ------------------------------------------------------------------------------------
     def run(self, protocol: Protocol, effects: Mapping[str, float] | None = None,

@@ -93,12 +93,6 @@ def interval_integrals(design: Design, edges_mm: np.ndarray) -> dict[str, np.nda
             "top_z_mm4": total(s.top_moment_mm3), "flexibility": total(flex)}
 
 
-def volume_mm3(design: Design) -> float:
-    """Elastomer volume from the sections (checks the layout against the exported part)."""
-    s = sections(design)
-    return float(s.area_mm2.sum() * _DX_MM)
-
-
 def rod_loads(design: Design, nodes_x_mm: np.ndarray):
     """Weight per g (N), load point (fraction along, height above) of each rod edge between nodes."""
     from pnmold.fem.material import G_STANDARD_N_PER_MM3_PER_G_PER_ML

@@ -1,18 +1,25 @@
 """Pneumatic dynamics: a supply step through valves, tubing and the connecting channel
-into the chambers, coupled to the bending mode (``pnmold simulate --dynamic``).
+into the chambers, coupled to the bending mode (``pnmold simulate --dynamic`` and the
+diagnosis of ``step`` recordings).
 
-gas (restrictions) -> network (volumes and edges) -> dynamics (+ mechanics) -> StepResponse.
+gas + flow (restrictions) -> network (volumes and edges) -> rates + trbdf2 (compiled) ->
+model (StepModel) -> dynamics (StepResponse) -> study (``simulate --dynamic``'s files).
 """
 
 from pnmold.pneumatics.dynamics import StepResponse, simulate_network, simulate_step
-from pnmold.pneumatics.effects import DYNAMIC_EFFECTS, dead_volume_pv_offset_ml, with_effects
+from pnmold.pneumatics.effects import dead_volume_pv_offset_ml, with_effects
 from pnmold.pneumatics.gas import Duct, Orifice
 from pnmold.pneumatics.law import ChamberLaw, CurveLaw, chamber_law_for, chamber_law_from_curve
 from pnmold.pneumatics.mechanics import BendingDynamics
+from pnmold.pneumatics.model import DIAGNOSIS, SIMULATION, StepModel
 from pnmold.pneumatics.network import ActuatorLine, Network, Rig, bench_network
+from pnmold.pneumatics.protocol import StepProtocol
+from pnmold.pneumatics.study import rig_for, run_step_study
+from pnmold.pneumatics.trbdf2 import Tolerances
 
 __all__ = [
-    "ActuatorLine", "BendingDynamics", "ChamberLaw", "CurveLaw", "DYNAMIC_EFFECTS", "Duct", "Network", "Orifice",
-    "Rig", "StepResponse", "bench_network", "chamber_law_for", "chamber_law_from_curve",
-    "dead_volume_pv_offset_ml", "simulate_network", "simulate_step", "with_effects",
+    "DIAGNOSIS", "SIMULATION", "ActuatorLine", "BendingDynamics", "ChamberLaw", "CurveLaw", "Duct", "Network",
+    "Orifice", "Rig", "StepModel", "StepProtocol", "StepResponse", "Tolerances", "bench_network",
+    "chamber_law_for", "chamber_law_from_curve", "dead_volume_pv_offset_ml", "rig_for", "run_step_study",
+    "simulate_network", "simulate_step", "with_effects",
 ]

@@ -1,4 +1,4 @@
-"""The two pneumatic effects of the catalogue (CONTRACTS.md §5): physics and entries.
+"""The physics of the two pneumatic effects of the catalogue (:mod:`pnmold.effects`).
 
 ``dead_volume`` -- extra compressible gas volume (mL) in series with the chambers: a
 fitting, a pressure-sensor tee, a longer tube. In the step model it is added to the
@@ -26,61 +26,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from pnmold.effects import check_effects
+from pnmold.errors import UsageError
 from pnmold.pneumatics.gas import P_ATM_PA, T_REF_K, T_STD_K
 from pnmold.pneumatics.network import Rig
-
-DYNAMIC_EFFECTS: list[dict] = [
-    {
-        "name": "dead_volume",
-        "parameter": "volume_ml",
-        "unit": "mL",
-        "default": 0.0,
-        "bounds": [0.0, 20.0],
-        "kinds": ["step", "pv"],
-        "description": "compressible gas volume in tubing/fittings in series with the chambers",
-        "fingerprint": ("step: slower pressure rise and bend, same final pressure and bend; metered gas against "
-                        "inlet pressure offset by V_d (p / p_std) (T_std / T) std mL, growing with pressure; "
-                        "pv (water): injected volume exceeds the chambers' by V_d p / (p_atm + p)"),
-        "extra": {},
-        "models": ["dynamic"],
-        "source": "assumed (fittings, sensor tees: 0-20 mL)",
-    },
-    {
-        "name": "flow_restriction",
-        "parameter": "extra_resistance",
-        "unit": "1",
-        "default": 0.0,
-        "bounds": [0.0, 20.0],
-        "kinds": ["step"],
-        "description": "pneumatic resistance of valve, tubing and the connecting channel (multiple of nominal)",
-        "fingerprint": ("step: pressure and flow traces stretched in time by (1 + k), peak flow divided by (1 + k); "
-                        "final state and the gas-pressure (P-V) relation unchanged; near chambers lead far ones "
-                        "for longer; response depends on the rate of the input"),
-        "extra": {},
-        "models": ["dynamic"],
-        "source": "assumed (a partly blocked channel, a kinked or longer tube: up to 20x)",
-    },
-]
-_BY_NAME = {e["name"]: e for e in DYNAMIC_EFFECTS}
-
-
-def check_effects(effects: Mapping[str, float]) -> dict[str, float]:
-    """Validate names and bounds of dynamic effects; ValueError names the offending effect."""
-    out = {}
-    for name, value in effects.items():
-        entry = _BY_NAME.get(name)
-        if entry is None:
-            raise ValueError(f"{name}: not a pneumatic effect (available: {', '.join(_BY_NAME)})")
-        lo, hi = entry["bounds"]
-        if not (np.isfinite(value) and lo <= value <= hi):
-            raise ValueError(f"{name}={value:g} is outside its bounds [{lo:g}, {hi:g}] {entry['unit']}")
-        out[name] = float(value)
-    return out
 
 
 def with_effects(rig: Rig, effects: Mapping[str, float]) -> Rig:
     """The bench with the dynamic effects switched on (0 = off)."""
-    e = check_effects(effects)
+    e = check_effects(effects, model="dynamic")
     return dataclasses.replace(rig, dead_volume_ml=e.get("dead_volume", rig.dead_volume_ml),
                                flow_restriction=e.get("flow_restriction", rig.flow_restriction))
 
@@ -97,4 +51,4 @@ def dead_volume_pv_offset_ml(pressure_kpa, volume_ml: float, medium: str = "wate
         return volume_ml * p / (atmosphere_kpa + p)
     if medium == "air":
         return volume_ml * p * 1000 / P_ATM_PA * T_STD_K / temperature_k
-    raise ValueError(f"medium must be water or air, got {medium!r}")
+    raise UsageError(f"medium must be water or air, got {medium!r}")

@@ -32,8 +32,10 @@ Air is an ideal gas (``R_AIR``, ``GAMMA``). Two restriction elements:
   q = pi D^4 (p_up^2 - p_dn^2) / (256 mu L R T) when K = 0 (the mean density times
   the incompressible law).
 
-Flows are signed (positive from the first node to the second); upstream properties are
-those of the node with the higher pressure. ``slpm`` is standard litres per minute at
+The laws themselves are compiled once in :mod:`pnmold.pneumatics.flow`; the elements here
+hold their constants and evaluate them through it. Flows are signed (positive from the
+first node to the second); upstream properties are those of the node with the higher
+pressure. ``slpm`` is standard litres per minute at
 0 degC and 101.325 kPa (the convention of thermal mass-flow sensors such as Honeywell's
 AWM series used in the supplement's rapid-actuation set-up).
 """
@@ -45,18 +47,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pnmold.errors import UsageError
+from pnmold.pneumatics.flow import B_LAMINAR, RE_CROSS, DuctCoefficients, duct_mass_flow, orifice_mass_flow
+
 R_AIR = 287.05  # J/(kg K), dry air
 GAMMA = 1.4  # ratio of specific heats of air
-CP_AIR = GAMMA * R_AIR / (GAMMA - 1)
-CV_AIR = R_AIR / (GAMMA - 1)
 MU_AIR = 1.81e-5  # Pa s, dynamic viscosity of air at 20 degC
 T_REF_K = 293.15  # ISO 8778 (ANR) reference temperature, also the default gas temperature
 RHO_REF = 1.185  # kg/m^3, ISO 8778 (ANR) reference density (100 kPa, 20 degC, 65 % RH)
 P_ATM_PA = 101_325.0
 T_STD_K = 273.15  # standard conditions of "standard litres per minute"
 RHO_STD = P_ATM_PA / (R_AIR * T_STD_K)  # 1.292 kg/m^3
-B_LAMINAR = 0.999  # ISO 6358-1:2013 / Simscape laminar pressure ratio
-RE_CROSS = (64 / 0.3164) ** (1 / 0.75)  # where 64/Re meets Blasius: 1195
 #: choked mass flux of an ideal nozzle per unit upstream pressure and sqrt(T): kg/(s m^2 Pa) * sqrt(K)
 _NOZZLE = math.sqrt(GAMMA / R_AIR) * (2 / (GAMMA + 1)) ** ((GAMMA + 1) / (2 * (GAMMA - 1)))
 
@@ -75,9 +76,10 @@ class Orifice:
 
     def __post_init__(self):
         if not self.conductance_m3_per_s_pa > 0:
-            raise ValueError(f"sonic conductance must be > 0, got {self.conductance_m3_per_s_pa}")
+            raise UsageError(f"orifice: the sonic conductance must be > 0, got {self.conductance_m3_per_s_pa}")
         if not 0 <= self.critical_ratio < B_LAMINAR:
-            raise ValueError(f"critical pressure ratio b must be in [0, {B_LAMINAR}), got {self.critical_ratio}")
+            raise UsageError(f"orifice: the critical pressure ratio b must be in [0, {B_LAMINAR}), "
+                             f"got {self.critical_ratio}")
 
     @classmethod
     def from_diameter_mm(cls, diameter_mm: float, critical_ratio: float = 0.5) -> Orifice:
@@ -97,16 +99,14 @@ class Orifice:
     def scaled(self, factor: float) -> Orifice:
         return Orifice(self.conductance_m3_per_s_pa * factor, self.critical_ratio)
 
+    def choked_kg_per_s_pa(self, t_up_k=T_REF_K):
+        """C rho0 sqrt(T0 / T_up): the choked mass flow per upstream Pa (kg/(s Pa))."""
+        return self.conductance_m3_per_s_pa * RHO_REF * np.sqrt(T_REF_K / np.asarray(t_up_k, float))
+
     def mass_flow_kg_s(self, p_up_pa, p_dn_pa, t_up_k=T_REF_K):
-        """Mass flow (kg/s) for p_up >= p_dn (arrays broadcast)."""
-        p_up, p_dn = np.asarray(p_up_pa, float), np.asarray(p_dn_pa, float)
-        b = self.critical_ratio
-        choked = self.conductance_m3_per_s_pa * RHO_REF * p_up * np.sqrt(T_REF_K / np.asarray(t_up_k, float))
-        r = np.clip(p_dn / p_up, 0.0, 1.0)
-        shape = np.sqrt(np.clip(1 - ((np.minimum(r, B_LAMINAR) - b) / (1 - b)) ** 2, 0.0, 1.0))
-        shape = np.where(r <= b, 1.0, shape)
-        shape = np.where(r > B_LAMINAR, shape * (1 - r) / (1 - B_LAMINAR), shape)
-        return choked * shape
+        """Mass flow (kg/s) for p_up >= p_dn (arrays broadcast), by
+        :func:`pnmold.pneumatics.flow.orifice_mass_flow`."""
+        return _orifice_flows(self.choked_kg_per_s_pa(t_up_k), self.critical_ratio, p_up_pa, p_dn_pa)
 
 
 @dataclass(frozen=True)
@@ -120,9 +120,9 @@ class Duct:
 
     def __post_init__(self):
         if not (self.length_m >= 0 and self.diameter_m > 0 and self.area_m2 > 0 and self.minor_loss >= 0):
-            raise ValueError(f"duct needs length >= 0, diameter > 0, area > 0, K >= 0: {self}")
+            raise UsageError(f"duct: needs length >= 0, diameter > 0, area > 0, K >= 0: {self}")
         if self.length_m == 0 and self.minor_loss == 0:
-            raise ValueError("a duct of zero length needs a minor loss K > 0")
+            raise UsageError("duct: a duct of zero length needs a minor loss K > 0")
 
     @classmethod
     def tube(cls, length_mm: float, id_mm: float, minor_loss: float = 0.5) -> Duct:
@@ -140,55 +140,20 @@ class Duct:
     def volume_m3(self) -> float:
         return self.length_m * self.area_m2
 
-
-class DuctSet:
-    """Several ducts with their constants precomputed, for fast vectorised flows."""
-
-    def __init__(self, ducts: list[Duct] | tuple[Duct, ...], mu: float = MU_AIR):
-        length = np.array([d.length_m for d in ducts], float)
-        diameter = np.array([d.diameter_m for d in ducts], float)
-        k = np.array([d.minor_loss for d in ducts], float)
-        self.n = len(ducts)
-        self.area = np.array([d.area_m2 for d in ducts], float)
-        # friction-limited and choke-limited flux solved together: 2n entries
-        self.a = np.tile(64 * mu * length / diameter**2, 2)  # laminar: phi = a G + K G^2
-        self.c = np.tile(0.3164 * (mu / diameter) ** 0.25 * length / diameter, 2)  # Blasius: c G^1.75 + K G^2
-        self.k = np.concatenate([k, k + 1.0])
-        self.g_cross = np.tile(RE_CROSS * mu / diameter, 2)
-
-    def mass_flow_kg_s(self, p_up_pa: np.ndarray, p_dn_pa: np.ndarray, t_up_k: np.ndarray) -> np.ndarray:
-        """Mass flow (kg/s) through each duct for p_up >= p_dn, with the choke limit."""
-        rt = R_AIR * t_up_k
-        up2 = p_up_pa * p_up_pa / rt
-        phi = np.concatenate([up2 - p_dn_pa * p_dn_pa / rt, up2])
-        g = self._flux(phi)
-        return self.area * np.minimum(g[:self.n], g[self.n:])
-
-    def _flux(self, phi: np.ndarray) -> np.ndarray:
-        """G >= 0 with G^2 (f(G) L/D + K) = phi: the laminar branch (f = 64/Re) is a
-        quadratic; the turbulent one (Blasius) is solved by Newton from above on the
-        convex, increasing left-hand side (monotone convergence)."""
-        a, k = self.a, self.k
-        g = 2 * phi / (a + np.sqrt(a * a + 4 * k * phi))
-        turb = np.flatnonzero(g > self.g_cross)
-        if len(turb) == 0:
-            return g
-        c, kt, target = self.c[turb], k[turb], phi[turb]
-        with np.errstate(divide="ignore"):
-            gt = np.minimum(np.where(c > 0, (target / np.maximum(c, 1e-300)) ** (1 / 1.75), np.inf),
-                            np.where(kt > 0, np.sqrt(target / np.maximum(kt, 1e-300)), np.inf))
-        for _ in range(60):
-            g075 = gt**0.75
-            step = (c * g075 * gt + kt * gt * gt - target) / (1.75 * c * g075 + 2 * kt * gt)
-            gt = gt - step
-            if np.max(np.abs(step) / gt) <= 1e-14:
-                break
-        g[turb] = gt
-        return g
+    def coefficients(self, mu: float = MU_AIR) -> DuctCoefficients:
+        """The constants of :func:`pnmold.pneumatics.flow.duct_mass_flow` for gas of viscosity ``mu``."""
+        d, length = self.diameter_m, self.length_m
+        return DuctCoefficients(64 * mu * length / d**2, 0.3164 * (mu / d) ** 0.25 * length / d, self.minor_loss,
+                                RE_CROSS * mu / d, self.area_m2)
 
 
-def duct_mass_flow_kg_s(p_up_pa, p_dn_pa, t_up_k, ducts: list[Duct] | tuple[Duct, ...]):
-    """Mass flow (kg/s) through ``ducts`` for p_up >= p_dn (arrays, one entry per duct)."""
+_orifice_flows = np.vectorize(orifice_mass_flow, otypes=[float])
+
+
+def duct_mass_flow_kg_s(p_up_pa, p_dn_pa, t_up_k, ducts: list[Duct] | tuple[Duct, ...]) -> np.ndarray:
+    """Mass flow (kg/s) through each of ``ducts`` for p_up >= p_dn (arrays, one entry per duct),
+    by :func:`pnmold.pneumatics.flow.duct_mass_flow`."""
     n = len(ducts)
-    return DuctSet(ducts).mass_flow_kg_s(*(np.broadcast_to(np.asarray(x, float), (n,)) for x in
-                                           (p_up_pa, p_dn_pa, t_up_k)))
+    p_up, p_dn, t_up = (np.broadcast_to(np.asarray(x, float), (n,)) for x in (p_up_pa, p_dn_pa, t_up_k))
+    return np.array([duct_mass_flow(d.coefficients(), p_up[i], p_dn[i], R_AIR * t_up[i])
+                     for i, d in enumerate(ducts)], float)

@@ -9,16 +9,23 @@ step): below the first pressure (venting undershoot) and above the last (a suppl
 above the full-bend pressure). The tip follows the bend angle: it is interpolated against
 the angle, and beyond the last sample it moves as the end point of a constant-curvature
 arc, shifted to meet the last sampled tip.
+
+The compiled step model reads a law as :class:`Pieces` (:meth:`CurveLaw.volume_pieces`,
+:meth:`CurveLaw.pressure_pieces`): the PCHIP's breaks and cubic coefficients and the two
+linear continuations, the same polynomials, not a re-fit. Any other :class:`ChamberLaw`
+is first sampled into a :class:`CurveLaw` (:func:`as_curve_law`).
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
+
+from pnmold.errors import SolveError
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +39,20 @@ class ChamberLaw(Protocol):
     def bend_angle_deg(self, p_kpa): ...
 
     def tip_mm(self, p_kpa): ...
+
+
+class Pieces(NamedTuple):
+    """A piecewise cubic (scipy's ``PPoly`` layout: ``coefficients[0]`` multiplies dx^3)
+    inside [breaks[0], breaks[-1]], continued linearly outside: ``value_lo + slope_lo (x -
+    breaks[0])`` below, ``value_hi + slope_hi (x - breaks[-1])`` above. Numba reads it in
+    nopython mode (:func:`pnmold.pneumatics.rates.evaluate`)."""
+
+    breaks: np.ndarray
+    coefficients: np.ndarray  # (4, len(breaks) - 1)
+    value_lo: float
+    value_hi: float
+    slope_lo: float
+    slope_hi: float
 
 
 class _Linear:
@@ -57,6 +78,10 @@ class _Linear:
         out = self.dpchip(np.clip(x, self.x[0], self.x[-1]))
         out = np.where(x < self.x[0], self.slope_lo, out)
         return np.where(x > self.x[-1], self.slope_hi, out)
+
+    def pieces(self) -> Pieces:
+        return Pieces(np.ascontiguousarray(self.pchip.x, float), np.ascontiguousarray(self.pchip.c, float),
+                      float(self.y[0]), float(self.y[-1]), float(self.slope_lo), float(self.slope_hi))
 
 
 def _arc_tip(angle_rad, length_mm):
@@ -94,6 +119,14 @@ class CurveLaw:
 
     def volume_ml(self, p_kpa):
         return self._volume(p_kpa)
+
+    def volume_pieces(self) -> Pieces:
+        """The cavity volume (mL) against the gauge pressure (kPa), as compiled code reads it."""
+        return self._volume.pieces()
+
+    def pressure_pieces(self) -> Pieces:
+        """The quasi-static pressure (gauge kPa) against the bend angle (deg), as compiled code reads it."""
+        return self._pressure.pieces()
 
     def compliance_ml_per_kpa(self, p_kpa):
         """dV/dp of the cavity (mL/kPa)."""
@@ -133,13 +166,14 @@ def chamber_law_from_curve(pressure_kpa, volume_ml, bend_angle_deg, tip_x_mm, ti
     Pressures must increase; volume and angle must not decrease with pressure (tiny FE
     dips, below 1e-6 of the range, are flattened); the angle must increase strictly (it is
     inverted). ``length_mm`` (the actuator's length, for the arc beyond the last sample)
-    defaults to the first tip's x."""
+    defaults to the first tip's x. A curve that breaks these (an FE run gone wrong) raises
+    :class:`~pnmold.errors.SolveError`."""
     p, v, a, tx, tz = (np.asarray(c, float).ravel() for c in (pressure_kpa, volume_ml, bend_angle_deg,
                                                              tip_x_mm, tip_z_mm))
     if not (len(p) == len(v) == len(a) == len(tx) == len(tz)) or len(p) < 2:
-        raise ValueError("the curve needs at least two samples and columns of equal length")
+        raise SolveError("chamber law: the curve needs at least two samples and columns of equal length")
     if not np.all(np.isfinite(np.stack([p, v, a, tx, tz]))):
-        raise ValueError("the curve has non-finite values")
+        raise SolveError("chamber law: the curve has non-finite values")
     order = np.argsort(p, kind="stable")
     p, v, a, tx, tz = p[order], v[order], a[order], tx[order], tz[order]
     keep = np.concatenate([[True], np.diff(p) > 0])
@@ -147,50 +181,33 @@ def chamber_law_from_curve(pressure_kpa, volume_ml, bend_angle_deg, tip_x_mm, ti
     for name, y in (("volume", v), ("bend angle", a)):
         dips = np.maximum.accumulate(y) - y
         if dips.max() > 1e-6 * max(np.ptp(y), 1e-12):
-            raise ValueError(f"the {name} decreases with pressure (by {dips.max():.3g}); the law must be monotone")
+            raise SolveError(f"chamber law: the {name} decreases with pressure (by {dips.max():.3g}); "
+                             "the law must be monotone")
     v, a = np.maximum.accumulate(v), np.maximum.accumulate(a)
     if np.any(np.diff(a) <= 0):
-        raise ValueError("the bend angle must increase strictly with pressure (it is inverted)")
+        raise SolveError("chamber law: the bend angle must increase strictly with pressure (it is inverted)")
     if not v[0] > 0:
-        raise ValueError(f"the cavity volume must be positive, got {v[0]} mL")
+        raise SolveError(f"chamber law: the cavity volume must be positive, got {v[0]} mL")
     length = float(length_mm) if length_mm is not None else float(tx[0])
     return CurveLaw(p, v, a, tx, tz, length)
 
 
+def as_curve_law(law: ChamberLaw, p_max_kpa: float, samples: int = 600) -> CurveLaw:
+    """``law`` itself when it is a :class:`CurveLaw`; any other :class:`ChamberLaw` sampled
+    from 0 to 1.2 ``p_max_kpa`` (and continued linearly beyond)."""
+    if isinstance(law, CurveLaw):
+        return law
+    p = np.linspace(0.0, 1.2 * max(float(p_max_kpa), 1.0), samples)
+    tip_x, tip_z = law.tip_mm(p)
+    return chamber_law_from_curve(p, law.volume_ml(p), law.bend_angle_deg(p), tip_x, tip_z,
+                                  length_mm=float(np.asarray(tip_x, float).ravel()[0]))
+
+
 def chamber_law_for(design, *, progress=None) -> CurveLaw:
-    """The design's law from the FE's free-bending curve (no gravity).
+    """The design's law from the FE's free-bending curve (no gravity): its characterisation
+    (:func:`pnmold.physics.characterise.characterise`, cached; the templates' ship with pnmold)."""
+    from pnmold.physics.characterise import characterise
 
-    Uses :func:`pnmold.physics.characterise.characterise` (cached on disk) when that module
-    exists; otherwise builds the actuator and runs the quick FE (a minute or two)."""
-    try:
-        from pnmold.physics.characterise import characterise
-    except ImportError:
-        characterise = None
-    if characterise is not None:
-        c = characterise(design, progress=progress)
-        return chamber_law_from_curve(c.pressure_kpa, c.cavity_volume_ml, c.bend_angle_deg, c.tip_x_mm,
-                                      c.tip_z_mm, length_mm=design.length_mm)
-    log.info("pnmold.physics.characterise not available: running the quick FE for %s", design.name)
-    steps = _fe_steps(design, progress)
-    cols = {k: [s[k] for s in steps] for k in ("pressure_kpa", "cavity_volume_ml", "bend_angle_deg",
-                                                "tip_x_mm", "tip_z_mm")}
-    return chamber_law_from_curve(cols["pressure_kpa"], cols["cavity_volume_ml"], cols["bend_angle_deg"],
-                                  cols["tip_x_mm"], cols["tip_z_mm"], length_mm=design.length_mm)
-
-
-def _fe_steps(design, progress=None) -> list[dict]:
-    import tempfile
-    from pathlib import Path
-
-    from pnmold.cad import export_parts, make_parts
-    from pnmold.mesh import MeshSize
-    from pnmold.quickfe import run_fe
-
-    with tempfile.TemporaryDirectory() as tmp:
-        if progress:
-            progress(f"{design.name}: actuator CAD for the FE curve")
-        export_parts({"actuator": make_parts(design)["actuator"]}, Path(tmp))
-        if progress:
-            progress(f"{design.name}: free-bending curve (FE, no gravity; a minute or two)")
-        run = run_fe(design, Path(tmp) / "actuator.step", orientation="none", size=MeshSize(3.5, 7.0))
-    return [s.as_dict() for s in run.solution.steps]
+    c = characterise(design, progress=progress)
+    return chamber_law_from_curve(c.pressure_kpa, c.cavity_volume_ml, c.bend_angle_deg, c.tip_x_mm,
+                                  c.tip_z_mm, length_mm=design.length_mm)

@@ -34,6 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
+from pnmold.errors import DesignError
+from pnmold.pneumatics.law import Pieces
+
 DAMPING_RATIO = 0.2  # assumed (see module docstring)
 THETA_RANGE = (-2 * np.pi, 24 * np.pi)  # where j(theta) is tabulated
 
@@ -63,6 +66,14 @@ def _inertia_interpolants():
     return table, table.derivative()
 
 
+def inertia_pieces() -> Pieces:
+    """j(theta) as :class:`~pnmold.pneumatics.law.Pieces` for compiled code: the same table,
+    held at its end values (zero slope) outside ``THETA_RANGE``, as :func:`inertia_shape`."""
+    j, _ = _inertia_interpolants()
+    lo, hi = float(j(THETA_RANGE[0])), float(j(THETA_RANGE[1]))
+    return Pieces(np.ascontiguousarray(j.x, float), np.ascontiguousarray(j.c, float), lo, hi, 0.0, 0.0)
+
+
 def inertia_shape(theta_rad):
     """(j(theta), dj/dtheta): the dimensionless generalised mass of the curling mode
     (held at its end values outside ``THETA_RANGE``, far past full bend)."""
@@ -82,11 +93,12 @@ class BendingDynamics:
 
     def __post_init__(self):
         if not (self.mass_kg > 0 and self.length_m > 0 and self.moment_per_pa > 0 and self.damping_ratio >= 0):
-            raise ValueError(f"bending dynamics need positive mass, length and moment arm, damping >= 0: {self}")
+            raise DesignError("bending", f"the bending mode needs a positive mass, length and moment arm and a "
+                              f"damping ratio >= 0: {self}")
 
     @classmethod
     def from_design(cls, design, damping_ratio: float = DAMPING_RATIO) -> BendingDynamics:
-        return cls(elastomer_volume_ml(design) * design.material.density_g_per_ml * 1e-3, design.length_mm * 1e-3,
+        return cls(design.elastomer_volume_mm3 * design.material.density_g_per_ml * 1e-6, design.length_mm * 1e-3,
                    pressure_moment_m3(design), damping_ratio)
 
     def inertia_kg_m2(self, theta_rad):
@@ -97,14 +109,19 @@ class BendingDynamics:
     def stiffness_nm_per_rad(self, dp_dtheta_pa_per_rad: float) -> float:
         return self.moment_per_pa * dp_dtheta_pa_per_rad
 
-    def natural_frequency_hz(self, theta0_rad: float, dp_dtheta_pa_per_rad: float) -> float:
+    def about_rest(self, theta0_rad: float, dp_dtheta_pa_per_rad: float) -> tuple[float, float, float]:
+        """(stiffness N m/rad, viscous damping N m s/rad, natural frequency Hz) about the rest
+        state: the damping c gives the damping ratio, c = 2 zeta sqrt(k J(theta0))."""
         k = self.stiffness_nm_per_rad(dp_dtheta_pa_per_rad)
-        return math.sqrt(k / float(self.inertia_kg_m2(theta0_rad)[0])) / (2 * math.pi)
+        j0 = float(self.inertia_kg_m2(theta0_rad)[0])
+        return k, 2 * self.damping_ratio * math.sqrt(k * j0), math.sqrt(k / j0) / (2 * math.pi)
+
+    def natural_frequency_hz(self, theta0_rad: float, dp_dtheta_pa_per_rad: float) -> float:
+        return self.about_rest(theta0_rad, dp_dtheta_pa_per_rad)[2]
 
     def damping_nms(self, theta0_rad: float, dp_dtheta_pa_per_rad: float) -> float:
         """Viscous coefficient c (N m s/rad) giving the damping ratio about the rest state."""
-        k = self.stiffness_nm_per_rad(dp_dtheta_pa_per_rad)
-        return 2 * self.damping_ratio * math.sqrt(k * float(self.inertia_kg_m2(theta0_rad)[0]))
+        return self.about_rest(theta0_rad, dp_dtheta_pa_per_rad)[1]
 
 
 def pressure_moment_m3(design) -> float:
@@ -113,16 +130,3 @@ def pressure_moment_m3(design) -> float:
     area = c.width_mm * c.height_mm
     lever = design.top_z0_mm + c.height_mm / 2 - design.paper.thickness_mm / 2
     return area * lever * 1e-9
-
-
-def elastomer_volume_ml(design) -> float:
-    """Solid volume of the cast actuator: envelope less chambers, channel and fPN gaps.
-
-    (The inlet bore is left out: about 0.1 % of the volume.)"""
-    c, ch = design.chambers, design.channel
-    envelope = design.length_mm * design.width_mm * design.height_mm
-    cavities = c.count * c.length_mm * c.width_mm * c.height_mm
-    x0, x1 = design.channel_x_mm
-    channel = (x1 - x0 - c.count * c.length_mm) * ch.width_mm * ch.height_mm
-    gaps = (c.count - 1) * design.gap_mm * design.width_mm * (design.top_height_mm - design.top_layer.floor_mm)
-    return (envelope - cavities - channel - gaps) / 1000

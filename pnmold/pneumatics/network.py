@@ -14,17 +14,16 @@ channel. The flow meter sits between the valves and the tubing (the supplement's
 sensors measured "air transferred to and from the actuator"), so it sees the gas that
 fills the tubing and any dead volume too.
 
-Gas law: ``isothermal`` (default) or ``adiabatic``. Isothermal (polytropic exponent 1):
-the silicone walls are a heat sink far larger than the gas, the chambers' smallest
-dimensions (the 1 mm channel, 1-6 mm chamber widths) exchange heat in milliseconds to a
-few tenths of a second, the FE curve and the lab's P-V curves are isothermal, and it is
-the slower of the two bounds (more gas per kPa). Adiabatic (exponent gamma = 1.4) is the
-energy balance without heat transfer, the fast bound. Per node, with V(p) its volume::
+The gas is isothermal (polytropic exponent 1): the silicone walls are a heat sink far
+larger than the gas, the chambers' smallest dimensions (the 1 mm channel, 1-6 mm chamber
+widths) exchange heat in milliseconds to a few tenths of a second, the FE curve and the
+lab's P-V curves are isothermal, and it is the slower bound (more gas per kPa). Per node,
+with V(p) its volume and q_net its net mass inflow::
 
-    isothermal  dp/dt (V + p dV/dp) = R T q_net
-    adiabatic   dp/dt (V + gamma p dV/dp) = (gamma - 1) H_net,  dm/dt = q_net,  T = p V / (m R)
+    dp/dt (V + p dV/dp) = R T q_net
 
-q_net is the net mass inflow and H_net = sum cp T_upstream q the net enthalpy inflow.
+:meth:`Network.lower` gives the compiled right-hand side (:mod:`pnmold.pneumatics.rates`)
+the network as arrays; this module is the one place the topology is written.
 """
 
 from __future__ import annotations
@@ -34,20 +33,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pnmold.pneumatics.gas import (
-    CP_AIR,
-    GAMMA,
-    P_ATM_PA,
-    R_AIR,
-    T_REF_K,
-    Duct,
-    DuctSet,
-    Orifice,
-)
-from pnmold.pneumatics.law import ChamberLaw
+from pnmold.errors import UsageError
+from pnmold.pneumatics.gas import MU_AIR, P_ATM_PA, R_AIR, T_REF_K, Duct, Orifice
+from pnmold.pneumatics.law import ChamberLaw, CurveLaw, Pieces, as_curve_law
+from pnmold.pneumatics.rates import DuctEdges, NetworkArrays, OrificeEdges
 
-GAS_LAWS = ("isothermal", "adiabatic")
+GAS_LAW = "isothermal"
+#: why the step model has no other gas law (``--gas-law adiabatic`` and such recordings are refused)
+ISOTHERMAL_WHY = ("the step model is isothermal: the silicone walls exchange heat with the gas within "
+                  "milliseconds to tenths of a second and the FE and lab P-V curves it is built on are "
+                  "isothermal; an adiabatic bound would need an energy balance the compiled model does not carry")
 TUBING_LENGTH_MM = 300.0  # assumed: the supplement gives the tubing's bore, not its length
+TUBING_ID_MM = 0.79375  # 1/32" (the supplement's tubing)
 VALVE_ORIFICE_MM = 1.0  # assumed effective orifice of the miniature solenoid valves
 VALVE_CRITICAL_RATIO = 0.5  # assumed (sharp-edged orifices: 0.3-0.53)
 VALVE_VOLUME_ML = 0.05  # assumed internal volume between the valve seat and the tubing
@@ -67,7 +64,7 @@ class Rig:
     vent_valve: Orifice = field(default_factory=lambda: Orifice.from_diameter_mm(VALVE_ORIFICE_MM,
                                                                                  VALVE_CRITICAL_RATIO))
     tubing_length_mm: float = TUBING_LENGTH_MM
-    tubing_id_mm: float = 0.79375  # 1/32" (the supplement's tubing)
+    tubing_id_mm: float = TUBING_ID_MM
     valve_volume_ml: float = VALVE_VOLUME_ML
     vent_at_s: float | None = None
     dead_volume_ml: float = 0.0
@@ -84,7 +81,7 @@ class Rig:
         for name, ok in checks.items():
             value = getattr(self, name)
             if not ok or (value is not None and not math.isfinite(value)):
-                raise ValueError(f"{name}: out of range ({value!r})")
+                raise UsageError(f"rig.{name}: out of range ({value!r})")
 
 
 @dataclass(frozen=True)
@@ -120,116 +117,86 @@ class Network:
     ``rigid_m3[i]`` is node i's fixed volume; nodes with ``law_share[i] > 0`` add that
     share of the chamber law's cavity volume. ``orifices``: (a, b, Orifice, phase) with
     phase "supply" (open before venting) or "vent" (open after); ``ducts``: (a, b, Duct).
-    ``meter``: the orifices whose flow is metered (signed into the line)."""
+    The flow meter sees the orifices and ducts that join a node to the supply or the
+    atmosphere (signed into the line)."""
 
     rigid_m3: np.ndarray
     law_share: np.ndarray
-    law: ChamberLaw | None
+    law: CurveLaw | None
     orifices: tuple
     ducts: tuple
     p_supply_pa: float
     p_atm_pa: float
     temperature_k: float = T_REF_K
     flow_scale: float = 1.0
-    gas_law: str = "isothermal"
     names: tuple[str, ...] = ()
-
-    def __post_init__(self):
-        if self.gas_law not in GAS_LAWS:
-            raise ValueError(f"gas law must be one of {', '.join(GAS_LAWS)}, got {self.gas_law!r}")
-        d = self.ducts
-        object.__setattr__(self, "_duct_a", np.array([e[0] for e in d], int))
-        object.__setattr__(self, "_duct_b", np.array([e[1] for e in d], int))
-        object.__setattr__(self, "_duct_set", DuctSet([e[2] for e in d]))
-        incidence = np.zeros((self.n + 2, len(d)))  # +1 into b, -1 out of a, per duct
-        for j, (a, b, _) in enumerate(d):
-            incidence[a, j] -= 1.0
-            incidence[b, j] += 1.0
-        object.__setattr__(self, "_incidence", incidence)
-        object.__setattr__(self, "_chambers", np.flatnonzero(self.law_share > 0))
 
     @property
     def n(self) -> int:
         return len(self.rigid_m3)
 
-    def adjacency(self) -> np.ndarray:
-        """n x n booleans: node i's rates depend on node j's state (itself and its neighbours)."""
+    def depends(self) -> np.ndarray:
+        """n x n booleans: node i's rate depends on node j's pressure (itself and its neighbours)."""
         adj = np.eye(self.n, dtype=bool)
         for a, b, *_ in (*self.orifices, *self.ducts):
             if a < self.n and b < self.n:
                 adj[a, b] = adj[b, a] = True
         return adj
 
-    def metered_nodes(self) -> np.ndarray:
-        """Nodes whose state sets the metered flow (those on a boundary orifice)."""
-        return np.unique([a if a < self.n else b for a, b, *_ in self.orifices])
+    def chambers(self) -> np.ndarray:
+        """The nodes that hold a share of the chamber law."""
+        return np.flatnonzero(self.law_share > 0)
 
-    # -- volumes ----------------------------------------------------------------
-    def volumes(self, p_pa: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(V, dV/dp) of every node at absolute pressures ``p_pa`` (m^3, m^3/Pa)."""
-        v, dv = self.rigid_m3.copy(), np.zeros(self.n)
-        idx = self._chambers
-        if len(idx):
-            gauge_kpa = (p_pa[idx] - self.p_atm_pa) / 1000
-            share = self.law_share[idx]
-            v[idx] += share * np.asarray(self.law.volume_ml(gauge_kpa), float) * 1e-6
-            dv[idx] = share * _compliance_ml_per_kpa(self.law, gauge_kpa) * 1e-9
-        return v, dv
+    def lower(self, pressure_scale: float = 1.0) -> NetworkArrays:
+        """The network as arrays for :mod:`pnmold.pneumatics.rates` (the law read at p / ``pressure_scale``)."""
+        depends = self.depends()
+        colour = _colours(depends)
+        phase = {"supply": 0, "vent": 1}
+        o = self.orifices
+        orifices = OrificeEdges(np.array([e[0] for e in o], np.int64), np.array([e[1] for e in o], np.int64),
+                                np.array([e[2].choked_kg_per_s_pa(self.temperature_k) for e in o], float),
+                                np.array([e[2].critical_ratio for e in o], float),
+                                np.array([phase[e[3]] for e in o], np.int64))
+        d = self.ducts
+        c = np.array([e[2].coefficients(MU_AIR) for e in d], float).reshape(len(d), 5).T
+        ducts = DuctEdges(np.array([e[0] for e in d], np.int64), np.array([e[1] for e in d], np.int64),
+                          *(np.ascontiguousarray(row) for row in c))
+        volume = self.law.volume_pieces() if self.law is not None else _NO_LAW
+        return NetworkArrays(np.asarray(self.rigid_m3, float), np.asarray(self.law_share, float), volume,
+                             float(pressure_scale), orifices, ducts, np.array([self.p_supply_pa, self.p_atm_pa]),
+                             float(self.p_atm_pa), R_AIR * self.temperature_k, float(self.flow_scale), depends,
+                             colour, int(colour.max()) + 1 if colour.size else 0)
 
-    def stored_mass_kg(self, p_pa: np.ndarray, t_k: np.ndarray | None = None) -> np.ndarray:
-        v, _ = self.volumes(p_pa)
-        return p_pa * v / (R_AIR * (self.temperature_k if t_k is None else t_k))
-
-    # -- flows ------------------------------------------------------------------
-    def flows(self, p_pa: np.ndarray, t_k: np.ndarray, phase: str):
-        """(q_net kg/s per node, H_net W per node, metered kg/s) at node pressures and temperatures."""
-        n = self.n
-        p = np.concatenate([p_pa, [self.p_supply_pa, self.p_atm_pa]])
-        t = np.concatenate([t_k, [self.temperature_k, self.temperature_k]])
-        q_net, h_net, meter = np.zeros(n + 2), np.zeros(n + 2), 0.0
-        for a, b, orifice, when in self.orifices:
-            if when != phase:
-                continue
-            up, dn = (a, b) if p[a] >= p[b] else (b, a)
-            q = self.flow_scale * float(orifice.mass_flow_kg_s(p[up], p[dn], t[up]))
-            q = q if up == a else -q  # signed a -> b
-            q_net[a] -= q
-            q_net[b] += q
-            h = CP_AIR * t[up] * q
-            h_net[a] -= h
-            h_net[b] += h
-            meter += q if b < n and a >= n else (-q if a < n and b >= n else 0.0)
-        if len(self.ducts):
-            a, b = self._duct_a, self._duct_b
-            forward = p[a] >= p[b]
-            up, dn = np.where(forward, a, b), np.where(forward, b, a)
-            q = self.flow_scale * self._duct_set.mass_flow_kg_s(p[up], p[dn], t[up])
-            q = np.where(forward, q, -q)
-            q_net += self._incidence @ q
-            h_net += self._incidence @ (CP_AIR * t[up] * q)
-        return q_net[:n], h_net[:n], meter
-
-    def pressure_rates(self, p_pa, t_k, phase):
-        """(dp/dt, dm/dt, metered flow): the node equations of the module docstring."""
-        q_net, h_net, meter = self.flows(p_pa, t_k, phase)
-        v, dv = self.volumes(p_pa)
-        if self.gas_law == "isothermal":
-            dp = R_AIR * self.temperature_k * q_net / (v + p_pa * dv)
-        else:
-            dp = (GAMMA - 1) * h_net / (v + GAMMA * p_pa * dv)
-        return dp, q_net, meter
+    def stored_mass_kg(self, p_pa: np.ndarray, pressure_scale: float = 1.0) -> np.ndarray:
+        """Gas mass in every node (kg) at absolute pressures ``p_pa`` (nodes along the first axis)."""
+        p = np.asarray(p_pa, float)
+        shape = (self.n,) + (1,) * (p.ndim - 1)
+        v = np.broadcast_to(np.reshape(self.rigid_m3, shape), p.shape).copy()
+        if self.law is not None:
+            gauge_kpa = (p - self.p_atm_pa) / 1000 / pressure_scale
+            v += np.reshape(self.law_share, shape) * np.asarray(self.law.volume_ml(gauge_kpa), float) * 1e-6
+        return p * v / (R_AIR * self.temperature_k)
 
 
-def _compliance_ml_per_kpa(law, p_kpa):
-    fn = getattr(law, "compliance_ml_per_kpa", None)
-    if fn is not None:
-        return np.asarray(fn(p_kpa), float)
-    h = 1e-3
-    return (np.asarray(law.volume_ml(p_kpa + h), float) - np.asarray(law.volume_ml(p_kpa - h), float)) / (2 * h)
+#: the volume law of a network without chambers (never read: every share is 0)
+_NO_LAW = Pieces(np.array([0.0, 1.0]), np.zeros((4, 1)), 0.0, 0.0, 0.0, 0.0)
 
 
-def bench_network(law: ChamberLaw, line: ActuatorLine, rig: Rig, gas_law: str = "isothermal") -> Network:
-    """The step-test network of the module docstring for an actuator and a bench."""
+def _colours(depends: np.ndarray) -> np.ndarray:
+    """Finite-difference groups: greedy, no node's rate depends on two nodes of a group."""
+    n = len(depends)
+    conflict = (depends.T.astype(np.int64) @ depends.astype(np.int64)) > 0
+    colour = np.full(n, -1, np.int64)
+    for j in range(n):
+        taken = set(colour[conflict[j] & (colour >= 0)].tolist())
+        colour[j] = next(c for c in range(n + 1) if c not in taken)
+    return colour
+
+
+def bench_network(law: ChamberLaw, line: ActuatorLine, rig: Rig) -> Network:
+    """The step-test network of the module docstring for an actuator and a bench (a law
+    other than a :class:`CurveLaw` is sampled up to the supply, :func:`as_curve_law`)."""
+    law = as_curve_law(law, rig.supply_kpa)
     n_ch = line.chambers
     tube = Duct.tube(rig.tubing_length_mm, rig.tubing_id_mm)
     half_tube = tube.volume_m3 / 2
@@ -246,4 +213,4 @@ def bench_network(law: ChamberLaw, line: ActuatorLine, rig: Rig, gas_law: str = 
     names = ("valve outlet", "inlet") + tuple(f"chamber {i + 1}" for i in range(n_ch))
     p_atm = rig.atmosphere_kpa * 1000
     return Network(rigid, share, law, orifices, tuple(ducts), p_atm + rig.supply_kpa * 1000, p_atm,
-                   rig.temperature_k, 1.0 / (1.0 + rig.flow_restriction), gas_law, names)
+                   rig.temperature_k, 1.0 / (1.0 + rig.flow_restriction), names)

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from pnmold.conventions import FULL_BEND_DEG
 from pnmold.plots import plt, save_figure
-from pnmold.pneumatics.dynamics import FULL_BEND_DEG, StepResponse
+from pnmold.pneumatics.dynamics import StepResponse
 
 
 def plot_step(response: StepResponse, title: str, path: str | Path) -> Path:

@@ -128,7 +128,7 @@ def _build(design: Design, run: RunOptions, build_dir: str | None) -> dict[str, 
 
     size = None
     if run.fem and (run.wall_mm or run.max_mm):
-        from pnmold.mesh import MeshSize
+        from pnmold.tetmesh import MeshSize
 
         default = MeshSize()
         size = MeshSize(run.wall_mm or default.wall_mm, run.max_mm or default.max_mm)

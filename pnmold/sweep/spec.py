@@ -21,7 +21,6 @@ whether a point is a valid design is decided per point by the design rules.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import re
@@ -30,8 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pnmold.design import SECTIONS, digest, load_design, templates_dir
-from pnmold.errors import DesignError
+from pnmold.design import SECTIONS, coerce_value, digest, field_type, load_design, templates_dir
+from pnmold.errors import DesignError, SweepError
 
 SAMPLINGS = ("grid", "random")
 RANGE_KEYS = ("start", "stop", "step", "num")
@@ -40,15 +39,6 @@ MAX_POINTS = 100_000
 _TABLES = {"sweep": ("name", "base", "description", "sampling", "n", "seed"),
            "axes": (),
            "run": ("fem", "wall_mm", "max_mm", "max_pressure_kpa", "keep_builds")}
-
-
-class SweepError(DesignError):
-    """A sweep file is unreadable or wrong; names the file and the field (exit 2)."""
-
-    def __init__(self, path: str | os.PathLike, field: str, message: str):
-        self.path = str(path)
-        super().__init__(field, message)
-        self.args = (f"{self.path}: {field}: {message}",)
 
 
 @dataclass(frozen=True)
@@ -154,13 +144,7 @@ def _known(path: Path, prefix: str, table: dict, valid: tuple[str, ...]) -> None
 
 def _get(path: Path, table: dict, field: str, kind: type, default: Any) -> Any:
     value = table.get(field.split(".", 1)[1], default)
-    if kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-        raise SweepError(path, field, f"must be {kind.__name__}, got {value!r}")
-    if kind is float and not math.isfinite(value):
-        raise SweepError(path, field, f"must be finite, got {value!r}")
-    return value
+    return _value(path, field, kind.__name__, value)
 
 
 def _base(path: Path, head: dict) -> Path:
@@ -206,31 +190,18 @@ def _axis_entries(path: Path, table: dict) -> list[tuple[str, Any]]:
 
 def field_kind(path: Path, field: str) -> str:
     """The type name (int, float, str) of design field ``section.key``."""
-    section, _, key = field.partition(".")
-    if section not in SECTIONS:
-        raise SweepError(path, f"axes.{field}", f"unknown section {section!r}; valid: {', '.join(SECTIONS)}")
-    kinds = {f.name: f.type if isinstance(f.type, str) else f.type.__name__
-             for f in dataclasses.fields(SECTIONS[section])}
-    if key not in kinds:
-        raise SweepError(path, f"axes.{field}", f"unknown key; valid keys of [{section}]: {', '.join(kinds)}")
-    return kinds[key]
+    try:
+        return field_type(field).__name__
+    except DesignError as err:
+        raise SweepError(path, f"axes.{field}", err.message) from None
 
 
 def _value(path: Path, where: str, kind: str, value: Any) -> Any:
-    """``value`` as the field's type (ints stay ints, numbers become floats)."""
-    if kind == "str":
-        if isinstance(value, str):
-            return value
-    elif isinstance(value, bool):
-        pass
-    elif kind == "int" and isinstance(value, int):
-        return value
-    elif kind == "float" and isinstance(value, int | float):
-        if not math.isfinite(value):
-            raise SweepError(path, where, f"must be finite, got {value!r}")
-        return float(value)
-    what = {"int": "an integer", "float": "a number", "str": "a string"}[kind]
-    raise SweepError(path, where, f"must be {what} (the design field's type), got {value!r}")
+    """``value`` as the field's type (the designs' coercion, the error naming the sweep file)."""
+    try:
+        return coerce_value(where, {"int": int, "float": float, "str": str, "bool": bool}[kind], value)
+    except DesignError as err:
+        raise SweepError(path, where, err.message) from None
 
 
 def _axis(path: Path, field: str, spec: Any, sampling: str) -> Axis:

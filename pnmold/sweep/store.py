@@ -127,13 +127,13 @@ class SweepStore:
     def start_run(self, sweep: str, scheduler: str, workers: int, total: int, skipped: int) -> int:
         import socket
 
-        import pnmold
+        from pnmold.version import __version__
 
         with self.con:
             cur = self.con.execute(
                 "INSERT INTO runs (sweep, started_at, scheduler, workers, points_total, points_skipped, "
                 "pnmold_version, host) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                (sweep, time.time(), scheduler, workers, total, skipped, pnmold.__version__, socket.gethostname()))
+                (sweep, time.time(), scheduler, workers, total, skipped, __version__, socket.gethostname()))
         return int(cur.lastrowid)
 
     def add(self, run_id: int, row: dict[str, Any], report: dict[str, Any] | None = None) -> None:

@@ -1,15 +1,15 @@
-"""The catalogue of physics effects (CONTRACTS.md §5): one composable term each.
+"""The catalogue of physics effects (CONTRACTS.md §5): one composable term each, in one place.
 
 Every effect has one physical parameter whose value 0 switches it off (``gravity`` = 1 is
 Earth's gravity), bounds that are physically plausible, the recording kinds that show it,
-the fingerprint it leaves in data, and how it enters the reduced model (``rom``) and,
-where it can, the FE (``fe``). Further parameters of an effect are given as
-``NAME.PARAM=VALUE`` (``extra``). ``default`` is the value a simulation uses when the
-effect is not named: gravity is on (1 g), every other term off.
+the fingerprint it leaves in data, and where it is modelled: the reduced model (``rom``),
+the FE (``fe``) or the pneumatic step model (``dynamic``). Further parameters of an effect
+are given as ``NAME.PARAM=VALUE`` (``extra``). ``default`` is the value a simulation uses
+when the effect is not named: gravity is on (1 g), every other term off.
 
-Adding an effect is one more ``Effect(...)`` in :data:`CATALOGUE` (the pneumatic terms
-``dead_volume`` and ``flow_restriction`` join from :mod:`pnmold.pneumatics.effects`,
-whose entries are plain dicts of the same fields, in :func:`_pneumatic_entries`).
+A leaf module (it imports nothing of pnmold but the errors): the models read the catalogue,
+the catalogue knows no model. Adding an effect is one more ``Effect(...)`` in
+:data:`CATALOGUE`; :func:`check_effects` is the one validator.
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from pnmold.design import Design
 from pnmold.errors import DesignError
 
 Extra = tuple[str, str, float, tuple[float, float]]  # (parameter, unit, default, bounds)
@@ -48,16 +47,6 @@ class Effect:
                 "fingerprint": self.fingerprint,
                 "extra": [{"parameter": p, "unit": u, "default": d, "bounds": list(b)} for p, u, d, b in self.extra],
                 "rom": self.rom, "fe": self.fe or None, "source": self.source, "models": list(self.models)}
-
-    @classmethod
-    def from_dict(cls, d: Mapping, models: tuple[str, ...] = ("dynamic",)) -> Effect:
-        extra = d.get("extra") or {}
-        if isinstance(extra, Mapping):
-            extra = [{"parameter": k, **v} for k, v in extra.items()]
-        return cls(d["name"], d["parameter"], d["unit"], float(d["default"]), tuple(d["bounds"]),
-                   tuple(d["kinds"]), d["description"], d.get("fingerprint", ""),
-                   tuple((e["parameter"], e["unit"], float(e["default"]), tuple(e["bounds"])) for e in extra),
-                   d.get("rom", ""), d.get("fe", ""), d.get("source", "assumed"), tuple(d.get("models", models)))
 
 
 SI = "Mosadegh et al. 2014, Supporting Information"
@@ -142,18 +131,27 @@ CATALOGUE: tuple[Effect, ...] = (
             "law is evaluated at x (the FE is the relaxed, long-term response); time from time_s or the rate",
         source="assumed (silicone elastomers: Prony fractions 0.1-0.4, times 0.1-10 s)",
     ),
+
+    Effect(
+        "dead_volume", "volume_ml", "mL", 0.0, (0.0, 20.0), ("step", "pv"),
+        "compressible gas volume in tubing/fittings in series with the chambers",
+        "step: slower pressure rise and bend, same final pressure and bend; metered gas against "
+        "inlet pressure offset by V_d (p / p_std) (T_std / T) std mL, growing with pressure; "
+        "pv (water): injected volume exceeds the chambers' by V_d p / (p_atm + p)",
+        source="assumed (fittings, sensor tees: 0-20 mL)",
+        models=("dynamic",)),
+    Effect(
+        "flow_restriction", "extra_resistance", "1", 0.0, (0.0, 20.0), ("step",),
+        "pneumatic resistance of valve, tubing and the connecting channel (multiple of nominal)",
+        "step: pressure and flow traces stretched in time by (1 + k), peak flow divided by (1 + k); "
+        "final state and the gas-pressure (P-V) relation unchanged; near chambers lead far ones "
+        "for longer; response depends on the rate of the input",
+        source="assumed (a partly blocked channel, a kinked or longer tube: up to 20x)",
+        models=("dynamic",)),
 )
 
 
-def _pneumatic_entries() -> tuple[Effect, ...]:
-    try:
-        from pnmold.pneumatics.effects import DYNAMIC_EFFECTS
-    except ImportError:
-        return ()
-    return tuple(Effect.from_dict(d) for d in DYNAMIC_EFFECTS)
-
-
-EFFECTS: dict[str, Effect] = {e.name: e for e in (*CATALOGUE, *_pneumatic_entries())}
+EFFECTS: dict[str, Effect] = {e.name: e for e in CATALOGUE}
 
 
 def catalogue_json() -> list[dict]:
@@ -201,19 +199,3 @@ def value_of(effects: Mapping[str, float], key: str) -> float:
     if not param:
         return effect.default
     return next(d for p, _, d, _ in effect.extra if p == param)
-
-
-def design_for_fe(design: Design, effects: Mapping[str, float]) -> tuple[Design, float]:
-    """The design the FE solves with the material and layer effects in it, and the gravity factor."""
-    values = check_effects(effects, model="fe")
-    c20 = value_of(values, "strain_stiffening")
-    c30 = value_of(values, "strain_stiffening.c30_mpa")
-    if c20 or c30:
-        m = design.material
-        design = design.replace("material", c20_mpa=m.c20_mpa + c20, c30_mpa=m.c30_mpa + c30)
-    compliance = value_of(values, "layer_compliance")
-    if compliance:
-        p = design.paper
-        stiffness = 1.0 / (1.0 / (p.modulus_mpa * p.thickness_mm) + compliance)
-        design = design.replace("paper", modulus_mpa=stiffness / p.thickness_mm)
-    return design, value_of(values, "gravity")

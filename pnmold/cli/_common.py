@@ -1,0 +1,60 @@
+"""What the verbs share: the two consoles, the design arguments, progress and the gate's verdict."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+from rich.console import Console
+from rich.markup import escape
+
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+out_console = Console(highlight=False, soft_wrap=True)
+
+
+def add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:
+    """The DESIGN argument (a template or a TOML file) and ``--set`` (CONTRACTS.md §1)."""
+    if default is None:
+        parser.add_argument("design", help="template name (see `pnmold templates`) or TOML file")
+    else:
+        parser.add_argument("design", nargs="?", default=default,
+                            help=f"template name or TOML file (default {default})")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="override a design field (repeatable)")
+
+
+def load(args):
+    """The design the command line names, with its overrides."""
+    from pnmold.design import load_design
+
+    return load_design(args.design, args.set)
+
+
+@contextmanager
+def stages(args, title: str) -> Iterator[Callable[[str], None]]:
+    """A ``say(stage)`` callback that shows each stage with its time (nothing with ``--quiet``)."""
+    from pnmold.progress import stage_progress
+
+    with stage_progress(err_console, args.quiet, title=title) as say:
+        yield say
+
+
+def verdict(checks: list[dict], quiet: bool) -> int:
+    """Print the failed checks in plain words (and the skipped ones); 1 when any failed."""
+    failed = [c for c in checks if c["passed"] is False]
+    skipped = [c for c in checks if c["passed"] is None]
+    for check in failed:
+        err_console.print(f"[red]FAILED[/red] {check['id']}: {escape(check['message'])}")
+    if not quiet:
+        for check in skipped:
+            err_console.print(f"[yellow]skipped[/yellow] {check['id']}: {escape(check['message'])}")
+        passed = len(checks) - len(failed) - len(skipped)
+        out_console.print(f"checks: {passed} passed, {len(failed)} failed, {len(skipped)} skipped")
+    return 1 if failed else 0
+
+
+def say(text: str, args) -> None:
+    """A line on standard output unless ``--quiet``."""
+    if not args.quiet:
+        out_console.print(escape(text))

@@ -1,0 +1,70 @@
+"""The parser (one sub-parser per verb module) and :func:`main` (exit codes)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import traceback
+from collections.abc import Sequence
+
+from rich.markup import escape
+
+from pnmold.cli import build, check, checklist, diagnose, effects, material, report, simulate, sweep, templates
+from pnmold.cli._common import err_console
+from pnmold.errors import EXIT_INTERRUPTED, EXIT_UNEXPECTED, PnmoldError
+from pnmold.version import __version__
+
+#: verb -> its module, in the order ``--help`` lists them
+VERBS = {"build": build, "check": check, "report": report, "simulate": simulate, "checklist": checklist,
+         "material": material, "sweep": sweep, "diagnose": diagnose, "effects": effects, "templates": templates}
+
+
+def _output_flags(parser: argparse.ArgumentParser, default) -> None:
+    parser.add_argument("-v", "--verbose", action="store_true", default=default,
+                        help="log debug messages; print the traceback of an unexpected error")
+    parser.add_argument("-q", "--quiet", action="store_true", default=default, help="print only errors and failures")
+
+
+def make_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="pnmold", description=(
+        "PneuNet bending actuators: casting molds, design-rule checks, quick FE, diagnosis."))
+    parser.add_argument("--version", action="version", version=f"pnmold {__version__}")
+    _output_flags(parser, False)
+    flags = argparse.ArgumentParser(add_help=False)
+    _output_flags(flags, argparse.SUPPRESS)  # after the verb too, without overriding the ones before it
+    sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
+    for name, module in VERBS.items():
+        p = sub.add_parser(name, parents=[flags], help=module.HELP, description=module.DESCRIPTION)
+        module.add_args(p)
+        if hasattr(module, "run"):
+            p.set_defaults(handler=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = make_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help and --version -> 0, bad usage -> 2
+        return int(exc.code or 0)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.handler(args)
+    except PnmoldError as err:
+        err_console.print(f"[red]error[/red] ({type(err).__name__}): {escape(str(err))}")
+        return err.exit_code
+    except KeyboardInterrupt:
+        err_console.print("interrupted")
+        return EXIT_INTERRUPTED
+    except Exception as err:  # a bug, not the user's doing: one line, the traceback with -v
+        if args.verbose:
+            err_console.print(escape(traceback.format_exc()))
+        err_console.print(f"[red]unexpected error[/red] ({type(err).__name__}): {escape(str(err))}"
+                          + ("" if args.verbose else " (run with -v for the traceback)"))
+        return EXIT_UNEXPECTED
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,27 @@
+"""``pnmold build``: CAD, export, the design-rule gate, quick FE, checklist and report."""
+
+from __future__ import annotations
+
+from pnmold.cli._common import add_design, load, out_console, stages, verdict
+
+HELP = "CAD, export, checks, quick FE into out/<design>/"
+DESCRIPTION = "Build the actuator and its three molds as STEP and STL."
+
+
+def add_args(parser) -> None:
+    add_design(parser, default="fpn")
+    parser.add_argument("--out", metavar="DIR", help="output folder (default out/<design-name>/)")
+    parser.add_argument("--no-fem", action="store_true", help="skip the quick FE solve")
+    parser.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
+
+
+def run(args) -> int:
+    from pnmold.pipeline import build
+
+    design = load(args)
+    with stages(args, f"build {design.name}") as say:
+        result = build(design, args.out, fem=not args.no_fem, use_slicer=not args.no_slicer, progress=say)
+    if not args.quiet:
+        out_console.print(f"wrote {result.out_dir}/ ({len(result.report['parts'])} parts as "
+                          f"STEP and STL, design.toml, report.json, report.html)")
+    return verdict(result.report["checks"], args.quiet)

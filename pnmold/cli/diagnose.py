@@ -1,0 +1,35 @@
+"""``pnmold diagnose``: recordings against the model; the missing physics named, fitted, shown."""
+
+from __future__ import annotations
+
+from rich.markup import escape
+
+from pnmold.cli._common import add_design, load, out_console, stages
+
+HELP = "compare recordings with the model and name the missing physics"
+DESCRIPTION = ("Compare lab recordings (CONTRACTS.md §4) with the reduced model (step recordings: with the "
+               "pneumatic step model): recalibrate the modulus, locate the mismatch, name the missing physics from "
+               "the catalogue of effects (pnmold effects), fit it and show the held-out improvement; or say nothing "
+               "is missing.")
+
+
+def add_args(parser) -> None:
+    add_design(parser)
+    parser.add_argument("recordings", nargs="+", metavar="RECORDING.csv", help="recordings (bending, pv, force, step)")
+    parser.add_argument("--json", metavar="FILE", help="write the diagnosis (schema pnmold.diagnosis/1)")
+    parser.add_argument("--report", metavar="DIR", help="write report.html with before/after plots into DIR")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling (default 0)")
+
+
+def run(args) -> int:
+    from pnmold.diagnose.run import diagnose_recordings
+
+    design = load(args)
+    with stages(args, f"characterise {design.name} (once)") as say:
+        diag = diagnose_recordings(design, args.recordings, seed=args.seed, json_path=args.json,
+                                   report_dir=args.report, progress=say)
+    if not args.quiet:
+        out_console.print(escape(diag.doc["summary"]))
+        for m in diag.doc["mismatch"]:
+            out_console.print(f"  mismatch: {escape(m['description'])}")
+    return 0

@@ -1,0 +1,33 @@
+"""A diagnosis from files to files: what ``pnmold diagnose`` does, as one library call."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from pnmold.design import Design
+
+from .core import Diagnosis, diagnose
+from .model import diagnosis_effects, diagnosis_forward, read_all
+
+
+def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: int = 0,
+                        json_path: str | Path | None = None, report_dir: str | Path | None = None,
+                        progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Read and check every recording (a damaged one stops the run before anything is computed
+    or written), characterise the design in the FE once (cached; templates ship theirs; its
+    stages go to ``progress``), diagnose, and write the JSON and the report folder."""
+    from pnmold.physics.characterise import characterise
+    from pnmold.report import design_entry
+
+    from .output import write_json_doc, write_report
+
+    recordings = read_all(paths)
+    characterise(design, progress=progress)
+    diag = diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
+                    diagnosis_effects(recordings), seed=seed)
+    if json_path:
+        write_json_doc(diag, json_path)
+    if report_dir:
+        write_report(diag, report_dir)
+    return diag
