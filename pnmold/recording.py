@@ -1,24 +1,33 @@
 """Lab recordings in the CSV format of CONTRACTS.md §4, version 1: read and write.
 
-A recording is UTF-8 CSV: optional ``# key: value`` metadata lines, one header row of
-column names that carry their units, then numbers (``phase`` is text). Unknown metadata
-keys and extra columns are kept and ignored. A malformed file is refused with a
-:class:`~pnmold.errors.RecordingError` naming the file, line and column.
+A recording is UTF-8 CSV: optional ``# key: value`` metadata lines (``##`` lines are
+comments), one header row of column names that carry their units, then numbers (``phase``
+is text). Unknown metadata keys and extra columns are kept and ignored. Pressures and volumes
+may come in any unit of :data:`PRESSURE_UNITS` and :data:`VOLUME_UNITS` (``pressure_psi``,
+``supply_bar``, ``volume_ul``): they are converted once, here, to the canonical column
+(``pressure_kpa``, ``volume_ml``) and :attr:`Recording.conversions` says so. A malformed file
+is refused with a :class:`~pnmold.errors.RecordingError` naming the file, line and column.
+The format for users: ``docs/recording-format.md``.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import logging
 import math
+import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from pnmold.conventions import ORIENTATIONS, RECORDING_KINDS
+from pnmold.conventions import ORIENTATIONS, QUASI_STATIC_KINDS, RECORDING_KINDS
 from pnmold.errors import RecordingError
 from pnmold.fsutil import write_text
+from pnmold.units import ABSOLUTE_UNITS, PRESSURE_UNITS, VOLUME_UNITS
+
+log = logging.getLogger(__name__)
 
 VERSION = "1"
 #: kind -> (required columns, optional columns) (CONTRACTS.md §4)
@@ -30,20 +39,66 @@ COLUMNS = {
              ("flow_slpm", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "pressure_far_kpa", "volume_ml")),
 }
 PHASES = ("inflate", "deflate")
-#: quantity -> the one unit pnmold reads it in (checked on column names)
-UNITS = {"pressure": "kpa", "supply": "kpa", "tip_x": "mm", "tip_z": "mm", "volume": "ml", "force": "n",
-         "time": "s", "bend_angle": "deg", "flow": "slpm"}
 _TEXT_COLUMNS = ("phase",)
+
+#: canonical unit -> the units a column may carry instead
+_CONVERTIBLE = {"kpa": PRESSURE_UNITS, "ml": VOLUME_UNITS}
+_CANONICAL = {c for req, opt in COLUMNS.values() for c in (*req, *opt)}
+_MICRO = str.maketrans({"\u00b5": "u", "\u03bc": "u"})  # micro sign and Greek mu: uL
+
+#: what each column holds (the actuator frame and units of CONTRACTS.md §2; pressures are gauge)
+COLUMN_DOCS = {
+    "pressure_kpa": "pressure at the actuator's inlet (step: the chamber at the inlet)",
+    "tip_x_mm": "tip x: along the length from the clamped end (the tip: free end, bottom face, y = 0)",
+    "tip_z_mm": "tip z: up from the bottom (strain-limiting) face; negative as the actuator curls",
+    "bend_angle_deg": "rotation of the free end face about y, positive curling toward -z (360: fully bent)",
+    "cycle": "inflation cycle, counting from 1",
+    "phase": "inflate or deflate",
+    "time_s": "time since the start of the test (never decreasing)",
+    "volume_ml": "volume injected into the actuator since the first row (the cavity's volume change)",
+    "force_n": "blocked tip force on a plane under the tip",
+    "supply_kpa": "regulated supply pressure upstream of the valve (the valve opens when it rises)",
+    "flow_slpm": "flow into the actuator, standard litres per minute (0 degC, 101.325 kPa)",
+    "pressure_far_kpa": "pressure in the last (distal) chamber",
+}
+
+#: the metadata keys pnmold reads: key -> (kinds that read it, what it says); others are kept and ignored
+METADATA_KEYS = {
+    "pnmold-recording": (RECORDING_KINDS, "format version; this pnmold reads 1 (the default)"),
+    "kind": (RECORDING_KINDS, "bending | pv | force | step; without it the columns must tell the kind"),
+    "design": (RECORDING_KINDS, "the design tested, a template name or TOML file (for people: the command "
+               "line's DESIGN wins)"),
+    "orientation": (RECORDING_KINDS, "where gravity points: chambers_up (along -z of the actuator, the default) "
+                    "| chambers_down (+z) | horizontal (out of the bending plane) | submerged (in water)"),
+    "rate_kpa_per_s": (QUASI_STATIC_KINDS, "pressure ramp rate (> 0; also rate_psi_per_s, rate_bar_per_s, ...): "
+                       "each row's time when there is no time_s column (viscoelasticity needs time); "
+                       "without either the test is quasi-static"),
+    "tubing_length_mm": (("step",), "tubing from the valves to the actuator (default 300 mm, assumed)"),
+    "tubing_id_mm": (("step",), "tubing bore (default the design's inlet.tubing_id_mm)"),
+    "valve_orifice_mm": (("step",), "effective orifice of the supply and vent valves (default 1.0 mm, assumed)"),
+    "valve_sonic_conductance": (("step",), "the valves' ISO 6358 sonic conductance C in dm3/(s bar), instead "
+                                "of valve_orifice_mm"),
+    "valve_critical_ratio": (("step",), "the valves' ISO 6358 critical pressure ratio b in [0, 0.999) "
+                             "(default 0.5)"),
+    "valve_volume_ml": (("step",), "volume between the valve seat and the tubing (default 0.05 mL)"),
+    "atmosphere_kpa": (("step",), "absolute ambient pressure (default 101.325 kPa)"),
+    "temperature_k": (("step",), "gas temperature (default 293.15 K)"),
+    "gas_law": (("step",), "isothermal (the only one the step model has; adiabatic is refused)"),
+}
 
 
 @dataclass(frozen=True, eq=False)
 class Recording:
-    """One recording: its kind, metadata and columns (numpy arrays; ``phase`` as text)."""
+    """One recording: its kind, metadata and columns (numpy arrays; ``phase`` as text).
+
+    ``conversions``: canonical column (or metadata key) -> how it was converted at reading,
+    e.g. ``{"pressure_kpa": "from pressure_psi (x 6.894757)"}``; empty when none was."""
 
     path: str
     kind: str
     columns: dict[str, np.ndarray]
     metadata: dict[str, str] = field(default_factory=dict)
+    conversions: dict[str, str] = field(default_factory=dict)
 
     @property
     def orientation(self) -> str:
@@ -65,14 +120,29 @@ class Recording:
         return self.columns[name]
 
 
-def _unit_problem(name: str) -> str | None:
-    """Why the column's unit is wrong for pnmold, or None."""
-    for quantity, unit in UNITS.items():
-        if name.startswith(quantity + "_") and name.count("_") == quantity.count("_") + 1:
-            got = name[len(quantity) + 1:]
-            if got != unit:
-                return f"{quantity} must be in {unit} (column {quantity}_{unit}), not {got}"
-    return None
+def _conversion(source: str, factor: float) -> str:
+    return f"from {source} (x {factor:.7g})"
+
+
+def _resolve_unit(name: str) -> tuple[str, float] | str | None:
+    """A column name as pnmold reads it: (canonical name, factor to its unit), or why its unit
+    is refused, or None for a column pnmold does not read (kept and ignored)."""
+    name = name.translate(_MICRO)
+    if name in _CANONICAL:
+        return name, 1.0
+    stem, _, unit = name.rpartition("_")
+    wanted = [c for c in _CANONICAL if c.rpartition("_")[0] == stem]
+    if not stem or not wanted:
+        return None
+    canonical = wanted[0]
+    table = _CONVERTIBLE.get(canonical.rpartition("_")[2])
+    if table is None:
+        return f"{stem} must be in {canonical.rpartition('_')[2]} (column {canonical}), not {unit}"
+    if unit in table:
+        return canonical, table[unit]
+    if unit in ABSOLUTE_UNITS:
+        return f"{unit} is an absolute pressure; pnmold reads gauge pressure (above the atmosphere)"
+    return f"{stem} must be in one of {', '.join(table)} (e.g. column {canonical}), not {unit}"
 
 
 def _metadata(lines: list[str], path: str) -> tuple[dict[str, str], int]:
@@ -81,13 +151,30 @@ def _metadata(lines: list[str], path: str) -> tuple[dict[str, str], int]:
         if not line.startswith("#"):
             return meta, n
         body = line[1:].strip()
-        if not body:
+        if not body or body.startswith("#"):  # blank, or a "##" comment
             continue
         if ":" not in body:
             raise RecordingError(path, n, f"metadata must read '# key: value', got {line.strip()!r}")
         key, value = (s.strip() for s in body.split(":", 1))
         meta[key.lower()] = value.split()[0] if value else ""
     return meta, n + 1
+
+
+def _rate_in_kpa(meta: dict[str, str], path: str) -> dict[str, str]:
+    """``rate_<pressure unit>_per_s`` as ``rate_kpa_per_s`` (added to ``meta``); the conversion."""
+    given = [k for k in meta if k != "rate_kpa_per_s" and k.startswith("rate_") and k.endswith("_per_s")
+             and k[5:-6] in PRESSURE_UNITS]
+    if not given:
+        return {}
+    if len(given) > 1 or "rate_kpa_per_s" in meta:
+        both = sorted({*given, "rate_kpa_per_s"} & set(meta))
+        raise RecordingError(path, 1, f"two ramp rates given ({', '.join(both)}); keep one")
+    key, factor = given[0], PRESSURE_UNITS[given[0][5:-6]]
+    try:
+        meta["rate_kpa_per_s"] = repr(float(meta[key]) * factor)
+    except ValueError:
+        raise RecordingError(path, 1, f"{key} must be a positive number, got {meta[key]!r}") from None
+    return {"rate_kpa_per_s": _conversion(key, factor)}
 
 
 def _check_metadata(meta: dict[str, str], path: str, columns: list[str]) -> str:
@@ -162,38 +249,33 @@ def read_recording(path: str | Path) -> Recording:
     if header_line > len(lines) or not lines[header_line - 1].strip():
         raise RecordingError(p, header_line, "no header row of column names")
     rows = list(csv.reader(io.StringIO("\n".join(lines[header_line - 1:]))))
-    header = [h.strip().lower() for h in rows[0]]
-    for i, name in enumerate(header, 1):
-        if not name:
-            raise RecordingError(p, header_line, "empty column name", column=i)
-        if name in header[:i - 1]:
-            raise RecordingError(p, header_line, f"column appears twice (first as column {header.index(name) + 1})",
-                                 column=f"{i} ({name})")
-        problem = _unit_problem(name)
-        if problem:
-            raise RecordingError(p, header_line, problem, column=f"{i} ({name})")
-    kind = _check_metadata(meta, p, header)
+    header, names, factors = _header(rows[0], p, header_line)
+    conversions = _rate_in_kpa(meta, p)
+    kind = _check_metadata(meta, p, [n for n in names if n])
     required, optional = COLUMNS[kind]
-    missing = [c for c in required if c not in header]
+    missing = [c for c in required if c not in names]
     if missing:
         raise RecordingError(p, header_line, f"a {kind} recording needs column(s) {', '.join(missing)}",
                              column=missing[0])
-    used = [c for c in header if c in required + optional]
-    data: dict[str, list] = {c: [] for c in used}
+    used = {i: n for i, n in enumerate(names) if n in required + optional}
+    data: dict[str, list] = {n: [] for n in used.values()}
     for offset, row in enumerate(rows[1:], 1):
         line = header_line + offset
         if not row or all(not c.strip() for c in row):
             continue
         if len(row) != len(header):
-            where = _column(header, header[len(row)]) if len(row) < len(header) else len(header) + 1
+            where = f"{len(row) + 1} ({header[len(row)]})" if len(row) < len(header) else len(header) + 1
             raise RecordingError(p, line, f"{len(row)} fields, the header has {len(header)}", column=where)
-        for name, cell in zip(header, row, strict=True):
-            if name in data:
-                data[name].append(_cell(cell, p, line, name, _column(header, name)))
+        for i, name in used.items():
+            data[name].append(_cell(row[i], p, line, name, f"{i + 1} ({header[i]})"))
     n = len(data[required[0]])
     if n < 2:
         raise RecordingError(p, header_line + 1, f"needs at least 2 rows of data, found {n}")
     columns = {c: np.array(v, dtype=object if c in _TEXT_COLUMNS else float) for c, v in data.items()}
+    for i, name in used.items():
+        if factors[i] != 1.0 or header[i] != name:
+            columns[name] = columns[name] * factors[i]
+            conversions[name] = _conversion(rows[0][i].strip(), factors[i])
     if "cycle" in columns:
         columns["cycle"] = columns["cycle"].astype(int)
     if "time_s" in columns:
@@ -201,7 +283,34 @@ def read_recording(path: str | Path) -> Recording:
         if back.size:
             raise RecordingError(p, _data_line(rows, header_line, int(back[0]) + 1), "time goes backwards",
                                  column=_column(header, "time_s"))
-    return Recording(p, kind, columns, meta)
+    for name, how in conversions.items():
+        log.info("%s: %s %s", p, name, how)
+    return Recording(p, kind, columns, meta, conversions)
+
+
+def _header(cells: list[str], path: str, line: int) -> tuple[list[str], list[str | None], list[float]]:
+    """The header's names (lower case), the canonical name each gives (None: not read) and the
+    factor to its canonical unit; refuses an empty, repeated or unreadable name."""
+    header = [h.strip().lower() for h in cells]
+    names: list[str | None] = []
+    factors: list[float] = []
+    for i, name in enumerate(header, 1):
+        if not name:
+            raise RecordingError(path, line, "empty column name", column=i)
+        if name in header[:i - 1]:
+            raise RecordingError(path, line, f"column appears twice (first as column {header.index(name) + 1})",
+                                 column=f"{i} ({name})")
+        unit = _resolve_unit(name)
+        if isinstance(unit, str):
+            raise RecordingError(path, line, unit, column=f"{i} ({name})")
+        canonical, factor = unit or (None, 1.0)
+        if canonical is not None and canonical in names:
+            first = names.index(canonical)
+            raise RecordingError(path, line, f"gives {canonical} again (first as column {first + 1} "
+                                 f"({header[first]})); keep one", column=f"{i} ({name})")
+        names.append(canonical)
+        factors.append(factor)
+    return header, names, factors
 
 
 def _data_line(rows: list[list[str]], header_line: int, index: int) -> int:
@@ -236,3 +345,37 @@ def write_recording(path: str | Path, kind: str, columns: dict[str, np.ndarray],
                     metadata: dict[str, str] | None = None) -> Path:
     """Write a recording atomically."""
     return write_text(path, format_recording(kind, columns, metadata))
+
+
+def recording_template(kind: str) -> str:
+    """An empty recording of ``kind``: ``##`` comments that explain every metadata key and
+    column, the metadata lines, and the header row (required columns, then the optional
+    ones). :func:`read_recording` accepts it once two or more rows are filled in."""
+    if kind not in RECORDING_KINDS:
+        raise RecordingError("<template>", None, f"unknown kind {kind!r}; kinds: {', '.join(RECORDING_KINDS)}")
+    required, optional = COLUMNS[kind]
+
+    def comment(text: str) -> list[str]:
+        return textwrap.wrap(text, 96, initial_indent="## ", subsequent_indent="##     ")
+
+    out = comment(f"pnmold recording, kind {kind}: the CSV format of docs/recording-format.md. '##' lines are "
+                  "comments, '# key: value' lines are metadata. After the header row: one row per sample, "
+                  "comma-separated numbers, at least 2 rows.")
+    for key, (kinds, what) in METADATA_KEYS.items():
+        if kind in kinds:
+            out += comment(f"{key}: {what}")
+    out += [f"# pnmold-recording: {VERSION}", f"# kind: {kind}", "# orientation: chambers_up",
+            "## Optional keys above go here as '# key: value' lines (e.g. '# design: fpn')."]
+    out += comment(f"Required columns: {', '.join(required)}. Optional columns (delete those you did not "
+                   f"record): {', '.join(optional)}.")
+    out += [line for c in (*required, *optional) for line in comment(f"{c}: {COLUMN_DOCS[c]}")]
+    out += comment("Units are in the names: pressures in " + ", ".join(PRESSURE_UNITS) + " (e.g. pressure_psi), "
+                   "volumes in " + ", ".join(VOLUME_UNITS) + " (e.g. volume_ul); pnmold converts them to kPa and "
+                   "mL as it reads them.")
+    out.append(",".join((*required, *optional)))
+    return "\n".join(out) + "\n"
+
+
+def write_template(path: str | Path, kind: str) -> Path:
+    """Write :func:`recording_template` atomically."""
+    return write_text(path, recording_template(kind))

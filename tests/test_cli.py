@@ -113,7 +113,7 @@ def test_material_fit_refuses_damaged_files_with_file_and_line(text, tmp_path, c
 def test_version_and_the_output_flags_on_either_side_of_the_verb(capsys):
     assert main(["--version"]) == 0
     assert "pnmold 0." in capsys.readouterr().out
-    for argv in (["-q", "effects"], ["effects", "-q"], ["effects", "--quiet", "-v"]):
+    for argv in (["-q", "effects"], ["effects", "-q"], ["effects", "--quiet", "-v"], ["material", "list", "-q"]):
         assert main(argv) == 0
 
 

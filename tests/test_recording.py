@@ -1,12 +1,17 @@
-"""Recordings (CONTRACTS.md §4): read, write, and refuse damaged files with file, line, column."""
+"""Recordings (CONTRACTS.md §4): read, write, refuse damaged files with file, line, column; units
+converted at reading (a psi recording diagnoses like its kPa twin); templates."""
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
 
+from pnmold.cli import main
 from pnmold.errors import RecordingError
-from pnmold.recording import read_recording, write_recording
+from pnmold.recording import COLUMNS, METADATA_KEYS, read_recording, recording_template, write_recording
+from pnmold.units import PRESSURE_UNITS, PSI_KPA, VOLUME_UNITS
 
 GOOD = """# pnmold-recording: 1
 # kind: bending
@@ -47,7 +52,12 @@ DAMAGED = {
     "empty": ("", 1, None),
     "unknown-kind": ("# kind: twist\npressure_kpa,force_n\n1,2\n3,4\n", 1, None),
     "missing-column": ("# kind: force\npressure_kpa,torque_nmm\n1,2\n3,4\n", 2, "force_n"),
-    "wrong-unit": ("# kind: force\npressure_psi,force_n\n1,2\n3,4\n", 2, "1 (pressure_psi)"),
+    "wrong-unit": ("# kind: force\npressure_atm,force_n\n1,2\n3,4\n", 2, "1 (pressure_atm)"),
+    "fixed-unit": ("# kind: force\npressure_psi,force_kn\n1,2\n3,4\n", 2, "2 (force_kn)"),
+    "absolute-pressure": ("# kind: pv\nvolume_ml,pressure_psia\n1,2\n3,4\n", 2, "2 (pressure_psia)"),
+    "two-pressure-columns": ("# kind: force\npressure_kpa,force_n,pressure_psi\n1,2,3\n3,4,5\n", 2,
+                             "3 (pressure_psi)"),
+    "psi-not-a-number": ("# kind: force\npressure_psi,force_n\n1,2\n3x,4\n", 4, "1 (pressure_psi)"),
     "not-a-number": ("# kind: force\npressure_kpa,force_n\n1,2\n3,abc\n", 4, "2 (force_n)"),
     "nan": ("# kind: force\npressure_kpa,force_n\n1,2\nnan,3\n", 4, "1 (pressure_kpa)"),
     "ragged-row": ("# kind: force\npressure_kpa,force_n\n1,2\n3\n", 4, "2 (force_n)"),
@@ -87,3 +97,172 @@ def test_non_utf8_is_refused_with_its_line(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(RecordingError, match="cannot read"):
         read_recording(tmp_path / "nope.csv")
+
+
+# -- units: converted once at reading, the conversion stated ---------------------------------------
+
+UNIT_CASES = {  # column as written, value, canonical column, value in its unit, factor as stated
+    "psi": ("pressure_psi", "2", "pressure_kpa", 2 * 0.45359237 * 9.80665 / 0.0254**2 / 1000, "6.894757"),
+    "psig": ("Pressure_PSIG", "1", "pressure_kpa", 0.45359237 * 9.80665 / 0.0254**2 / 1000, "6.894757"),
+    "bar": ("pressure_bar", "0.25", "pressure_kpa", 25.0, "100"),
+    "mbar": ("pressure_mbar", "50", "pressure_kpa", 5.0, "0.1"),
+    "pa": ("pressure_pa", "1500", "pressure_kpa", 1.5, "0.001"),
+    "mpa": ("pressure_mpa", "0.01", "pressure_kpa", 10.0, "1000"),
+    "ul": ("volume_ul", "250", "volume_ml", 0.25, "0.001"),
+    "micro-sign": ("volume_\u00b5L", "250", "volume_ml", 0.25, "0.001"),
+    "cc": ("volume_cc", "1.5", "volume_ml", 1.5, "1"),
+    "l": ("volume_l", "0.002", "volume_ml", 2.0, "1000"),
+}
+
+
+@pytest.mark.parametrize("case", list(UNIT_CASES), ids=list(UNIT_CASES))
+def test_pressure_and_volume_units_are_converted_at_reading(case, tmp_path):
+    column, value, canonical, expected, factor = UNIT_CASES[case]
+    other = "pressure_kpa" if canonical == "volume_ml" else "volume_ml"
+    path = tmp_path / "pv.csv"
+    path.write_text(f"# kind: pv\n{column},{other}\n0,0\n{value},1\n", encoding="utf-8")
+    rec = read_recording(path)
+    assert canonical in rec.columns and column.lower() not in rec.columns
+    assert rec[canonical][1] == pytest.approx(expected, rel=1e-15) and rec[canonical][0] == 0
+    assert rec[other].tolist() == [0.0, 1.0]
+    assert rec.conversions == {canonical: f"from {column} (x {factor})"}
+
+
+def test_psi_is_the_nist_value():
+    """NIST SP 811 (2008) App. B.8: 1 psi = 6.894 757 kPa (rounded); the exact value from the
+    pound, standard gravity and the inch rounds to it."""
+    assert PSI_KPA == pytest.approx(6.894757, abs=5e-7)
+    assert PRESSURE_UNITS["bar"] == 100.0 and VOLUME_UNITS["cc"] == VOLUME_UNITS["ml"] == 1.0
+
+
+def test_step_columns_and_a_rate_in_psi(tmp_path):
+    path = tmp_path / "step.csv"
+    path.write_text("# kind: step\ntime_s,supply_bar,pressure_psi,pressure_far_psi\n0,0,0,0\n0.1,1,2,1\n")
+    rec = read_recording(path)
+    assert rec["supply_kpa"].tolist() == [0.0, 100.0]
+    assert rec["pressure_far_kpa"][1] == pytest.approx(PSI_KPA)
+    assert set(rec.conversions) == {"supply_kpa", "pressure_kpa", "pressure_far_kpa"}
+    ramp = tmp_path / "ramp.csv"
+    ramp.write_text("# kind: pv\n# rate_psi_per_s: 0.5\nvolume_ml,pressure_kpa\n0,0\n1,2\n")
+    rec = read_recording(ramp)
+    assert rec.rate_kpa_per_s == pytest.approx(0.5 * PSI_KPA)
+    assert rec.conversions == {"rate_kpa_per_s": "from rate_psi_per_s (x 6.894757)"}
+    both = tmp_path / "both.csv"
+    both.write_text("# kind: pv\n# rate_psi_per_s: 0.5\n# rate_kpa_per_s: 3\nvolume_ml,pressure_kpa\n0,0\n1,2\n")
+    with pytest.raises(RecordingError, match="two ramp rates"):
+        read_recording(both)
+
+
+def test_double_hash_lines_are_comments(tmp_path):
+    path = tmp_path / "c.csv"
+    path.write_text("## a note without a colon\n# kind: force\n##\n## kind: pv (a comment, not metadata)\n"
+                    "pressure_kpa,force_n\n1,2\n3,4\n")
+    rec = read_recording(path)
+    assert rec.kind == "force" and rec.metadata == {"kind": "force"}
+
+
+# -- templates ---------------------------------------------------------------------------------------
+
+def _filled_row(name: str, i: int) -> str:
+    return {"phase": "inflate", "cycle": "1"}.get(name, str(float(i + 1)))
+
+
+@pytest.mark.parametrize("kind", list(COLUMNS))
+def test_a_filled_in_template_reads_back(kind, tmp_path):
+    path = tmp_path / f"{kind}.csv"
+    assert main(["-q", "recording", "template", kind, "--out", str(path)]) == 0
+    text = path.read_text()
+    for key, (kinds, _) in METADATA_KEYS.items():
+        assert (f"## {key}: " in text) == (kind in kinds), key
+    header = text.splitlines()[-1].split(",")
+    assert header == [*COLUMNS[kind][0], *COLUMNS[kind][1]]
+    with pytest.raises(RecordingError, match="at least 2 rows") as info:  # empty: the header is read
+        read_recording(path)
+    assert info.value.line == len(text.splitlines()) + 1
+    rows = [",".join(_filled_row(c, i) for c in header) for i in range(2)]
+    path.write_text(text + "\n".join(rows) + "\n")
+    rec = read_recording(path)
+    assert rec.kind == kind and len(rec) == 2 and set(rec.columns) == set(header)
+    assert rec.metadata == {"pnmold-recording": "1", "kind": kind, "orientation": "chambers_up"}
+    assert rec.conversions == {}
+
+
+def test_template_goes_to_stdout_and_never_overwrites(tmp_path, capsys):
+    assert main(["recording", "template", "pv"]) == 0
+    assert capsys.readouterr().out == recording_template("pv")
+    path = tmp_path / "lab.csv"
+    path.write_text("precious")
+    assert main(["recording", "template", "pv", "--out", str(path)]) == 2
+    assert path.read_text() == "precious" and "--force" in capsys.readouterr().err
+    assert main(["-q", "recording", "template", "pv", "--out", str(path), "--force"]) == 0
+    assert path.read_text() == recording_template("pv")
+
+
+def test_the_step_defaults_the_template_states_are_the_step_models():
+    from pnmold.pneumatics import network
+    from pnmold.pneumatics.gas import P_ATM_PA, T_REF_K
+
+    stated = {"tubing_length_mm": network.TUBING_LENGTH_MM, "valve_orifice_mm": network.VALVE_ORIFICE_MM,
+              "valve_critical_ratio": network.VALVE_CRITICAL_RATIO, "valve_volume_ml": network.VALVE_VOLUME_ML,
+              "atmosphere_kpa": P_ATM_PA / 1000, "temperature_k": T_REF_K}
+    for key, value in stated.items():
+        assert f"default {value:g}" in METADATA_KEYS[key][1].replace("1.0 mm", "1 mm"), key
+    assert network.GAS_LAW in METADATA_KEYS["gas_law"][1]
+
+
+def test_recording_check_states_the_conversions(tmp_path, capsys):
+    path = tmp_path / "bench.csv"
+    path.write_text("# kind: bending\npressure_psi,tip_x_mm,tip_z_mm\n0,100,0\n1,90,-20\n")
+    assert main(["recording", "check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "bending, 2 rows" in out and "pressure_kpa from pressure_psi (x 6.894757)" in out
+
+
+# -- a psi recording diagnoses to the same answer as its kPa twin ------------------------------------
+
+def _to_psi(src, dst, volume_in_ul: bool = False) -> None:
+    """The same recording with its pressure columns in psi (and its volume in uL), full precision."""
+    lines = src.read_text().splitlines()
+    n = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    header = lines[n].split(",")
+    scale = {"pressure_kpa": ("pressure_psi", 1 / PSI_KPA), "volume_ml": ("volume_ul", 1000.0)}
+    if not volume_in_ul:
+        scale.pop("volume_ml")
+    out = lines[:n] + [",".join(scale.get(h, (h,))[0] for h in header)]
+    for line in lines[n + 1:]:
+        cells = line.split(",")
+        out.append(",".join(repr(float(c) * scale[h][1]) if h in scale else c
+                            for h, c in zip(header, cells, strict=True)))
+    dst.write_text("\n".join(out) + "\n")
+
+
+@pytest.mark.slow
+def test_a_psi_recording_diagnoses_like_its_kpa_twin(tmp_path):
+    design = "fig-s2a-h5"  # its characterisation ships with pnmold: no FE here
+    kpa = {"bending": tmp_path / "bending.csv", "pv": tmp_path / "pv.csv"}
+    for kind, noise in (("bending", ["--noise-mm", "0.3"]), ("pv", ["--noise-ml", "0.01"])):
+        assert main(["-q", "simulate", design, "--model", "rom", "--kind", kind, "--pressures", "0:40:5", *noise,
+                     "--seed", "3", "--recording", str(kpa[kind])]) == 0
+    psi = {k: tmp_path / f"{k}-psi.csv" for k in kpa}
+    _to_psi(kpa["bending"], psi["bending"])
+    _to_psi(kpa["pv"], psi["pv"], volume_in_ul=True)
+    assert "pressure_psi" in psi["pv"].read_text() and "pressure_kpa" not in psi["pv"].read_text()
+    docs = {}
+    for unit, files in (("kpa", kpa), ("psi", psi)):
+        out = tmp_path / f"{unit}.json"
+        assert main(["-q", "diagnose", design, str(files["bending"]), str(files["pv"]), "--json", str(out)]) == 0
+        docs[unit] = json.loads(out.read_text())
+    a, b = docs["kpa"], docs["psi"]
+    assert [m["effect"] for m in a["missing_physics"]] == [m["effect"] for m in b["missing_physics"]] != []
+    for key in ("rmse_before", "rmse_after", "heldout_rmse_before", "heldout_rmse_after"):
+        assert b["fit"][key] == pytest.approx(a["fit"][key], rel=1e-9), key
+    for key in ("rmse", "heldout_rmse"):  # unrounded in the JSON
+        assert b["baseline"][key] == pytest.approx(a["baseline"][key], rel=1e-9), key
+    assert b["baseline"]["calibrated"] == pytest.approx(a["baseline"]["calibrated"], rel=1e-9)
+    assert b["noise"] == pytest.approx(a["noise"], rel=1e-9)
+    for ma, mb in zip(a["missing_physics"], b["missing_physics"], strict=True):
+        assert mb["parameters"] == pytest.approx(ma["parameters"], rel=1e-9)
+    assert [r["conversions"] for r in a["recordings"]] == [{}, {}]
+    assert b["recordings"][0]["conversions"] == {"pressure_kpa": "from pressure_psi (x 6.894757)"}
+    assert b["recordings"][1]["conversions"] == {"volume_ml": "from volume_ul (x 0.001)",
+                                                 "pressure_kpa": "from pressure_psi (x 6.894757)"}

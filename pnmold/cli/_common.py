@@ -13,6 +13,16 @@ err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 out_console = Console(highlight=False, soft_wrap=True)
 
 
+def output_flags(default=argparse.SUPPRESS) -> argparse.ArgumentParser:
+    """``-v`` and ``-q`` as a parent parser: on ``pnmold`` itself (default False) and on every verb
+    and sub-action (default: keep what was given before the verb)."""
+    flags = argparse.ArgumentParser(add_help=False)
+    flags.add_argument("-v", "--verbose", action="store_true", default=default,
+                       help="log debug messages; print the traceback of an unexpected error")
+    flags.add_argument("-q", "--quiet", action="store_true", default=default, help="print only errors and failures")
+    return flags
+
+
 def add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:
     """The DESIGN argument (a template or a TOML file) and ``--set`` (CONTRACTS.md §1)."""
     if default is None:

@@ -10,29 +10,34 @@ from collections.abc import Sequence
 
 from rich.markup import escape
 
-from pnmold.cli import build, check, checklist, diagnose, effects, material, report, simulate, sweep, templates
-from pnmold.cli._common import err_console
+from pnmold.cli import (
+    build,
+    check,
+    checklist,
+    diagnose,
+    effects,
+    material,
+    recording,
+    report,
+    simulate,
+    sweep,
+    templates,
+)
+from pnmold.cli._common import err_console, output_flags
 from pnmold.errors import EXIT_INTERRUPTED, EXIT_UNEXPECTED, PnmoldError
 from pnmold.version import __version__
 
 #: verb -> its module, in the order ``--help`` lists them
 VERBS = {"build": build, "check": check, "report": report, "simulate": simulate, "checklist": checklist,
-         "material": material, "sweep": sweep, "diagnose": diagnose, "effects": effects, "templates": templates}
-
-
-def _output_flags(parser: argparse.ArgumentParser, default) -> None:
-    parser.add_argument("-v", "--verbose", action="store_true", default=default,
-                        help="log debug messages; print the traceback of an unexpected error")
-    parser.add_argument("-q", "--quiet", action="store_true", default=default, help="print only errors and failures")
+         "material": material, "sweep": sweep, "diagnose": diagnose, "effects": effects, "templates": templates,
+         "recording": recording}
 
 
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="pnmold", description=(
+    parser = argparse.ArgumentParser(prog="pnmold", parents=[output_flags(False)], description=(
         "PneuNet bending actuators: casting molds, design-rule checks, quick FE, diagnosis."))
     parser.add_argument("--version", action="version", version=f"pnmold {__version__}")
-    _output_flags(parser, False)
-    flags = argparse.ArgumentParser(add_help=False)
-    _output_flags(flags, argparse.SUPPRESS)  # after the verb too, without overriding the ones before it
+    flags = output_flags()  # after the verb too, without overriding the ones before it
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     for name, module in VERBS.items():
         p = sub.add_parser(name, parents=[flags], help=module.HELP, description=module.DESCRIPTION)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rich.markup import escape
 
-from pnmold.cli._common import out_console
+from pnmold.cli._common import out_console, output_flags
 
 HELP = "elastomer library and hyperelastic fits"
 DESCRIPTION = "The elastomer library, and hyperelastic fits of tensile tests."
@@ -12,22 +12,59 @@ DESCRIPTION = "The elastomer library, and hyperelastic fits of tensile tests."
 
 def add_args(parser) -> None:
     actions = parser.add_subparsers(dest="material_verb", required=True, metavar="ACTION")
-    fit = actions.add_parser("fit", help="fit a uniaxial tensile test (CSV: eng_strain, eng_stress_mpa)",
-                             description="Fit an incompressible hyperelastic model to engineering stress-strain "
-                             "data; prints the constants, R2 and the strain range where the fit holds, and writes a "
-                             "plot like the supplement's Fig. S4.")
+    fit = actions.add_parser(
+        "fit", parents=[output_flags()], help="fit a uniaxial tensile test (pnmold's CSV or a lab's file as published)",
+        description="Fit an incompressible hyperelastic model to a uniaxial tensile test; prints the constants, R2 "
+        "and the strain range where the fit holds, and writes a plot like the supplement's Fig. S4. Reads pnmold's "
+        "CSV (eng_strain, eng_stress_mpa) and lab files as published, e.g. the Soft Robotics Materials Database's "
+        "(';'-separated, a metadata block, 'Engineering Strain', 'Engineering Stress (MPa)'): delimiter and header "
+        "found, columns by name or by the options below, units from the header (MPa, kPa, Pa, N/mm2, psi; strain "
+        "as a ratio or %), true stress converted to engineering stress, or force and extension with the "
+        "specimen's size. See docs/tensile-files.md.")
     fit.add_argument("tensile", metavar="TENSILE.csv")
     fit.add_argument("--model", choices=["yeoh", "neo-hookean", "ogden"], default="yeoh")
     fit.add_argument("--json", metavar="FILE", help="write the fit as JSON (the plot goes beside it)")
+    fit.add_argument("--max-strain", type=float, metavar="E",
+                     help="fit only the points up to this engineering strain (e.g. what the actuator's walls see)")
+    fit.add_argument("--nonnegative", action="store_true",
+                     help="Yeoh: keep C20 and C30 >= 0, as a design's [material] section requires")
+    cols = fit.add_argument_group("columns (default: found by name; NAME is a header name or a 1-based position)")
+    cols.add_argument("--strain-column", metavar="NAME", help="engineering strain, or a true strain column")
+    cols.add_argument("--stress-column", metavar="NAME", help="engineering (nominal) or true stress")
+    cols.add_argument("--stress-kind", choices=["engineering", "true"],
+                      help="what the stress column holds (default: what its name says; true stress is converted "
+                      "with engineering = true / (1 + strain))")
+    cols.add_argument("--force-column", metavar="NAME", help="force, when there is no stress column")
+    cols.add_argument("--extension-column", metavar="NAME", help="extension, when there is no strain column")
+    units = fit.add_argument_group("units (default: from the header; these override it)")
+    units.add_argument("--strain-unit", metavar="UNIT", help="ratio (the default without one) or %%")
+    units.add_argument("--stress-unit", metavar="UNIT", help="MPa, kPa, Pa, N/mm2, psi, ...")
+    units.add_argument("--force-unit", metavar="UNIT", help="N, kN or lbf")
+    units.add_argument("--extension-unit", metavar="UNIT", help="mm, cm, m, um or in")
+    size = fit.add_argument_group("specimen (force and extension; default: the file's metadata rows)")
+    size.add_argument("--gauge-length-mm", type=float, metavar="L0", help="gauge length")
+    size.add_argument("--area-mm2", type=float, metavar="A0", help="initial cross-section")
+    size.add_argument("--width-mm", type=float, metavar="W", help="width (with --thickness-mm, instead of --area-mm2)")
+    size.add_argument("--thickness-mm", type=float, metavar="T", help="thickness")
     fit.set_defaults(handler=run_fit)
-    listing = actions.add_parser("list", help="list the material library", description="List the material library.")
+    listing = actions.add_parser("list", parents=[output_flags()], help="list the material library",
+                                 description="List the material library.")
     listing.set_defaults(handler=run_list)
 
 
 def run_fit(args) -> int:
     from pnmold.materials import fit_command
+    from pnmold.materials.fit import Specimen, TensileColumns
 
-    result = fit_command(args.tensile, args.model, json_path=args.json)
+    columns = TensileColumns(args.strain_column, args.stress_column, args.stress_kind, args.force_column,
+                             args.extension_column, args.strain_unit, args.stress_unit, args.force_unit,
+                             args.extension_unit)
+    specimen = Specimen(args.gauge_length_mm, args.area_mm2, args.width_mm, args.thickness_mm)
+    result = fit_command(args.tensile, args.model, json_path=args.json, columns=columns, specimen=specimen,
+                         nonnegative=args.nonnegative, max_strain=args.max_strain)
+    if not args.quiet:
+        for what, how in (result.read or {}).items():
+            out_console.print(f"{what}: {escape(how)}")
     out_console.print(escape(result.summary()))
     if result.plot:
         out_console.print(f"plot: {result.plot}")

@@ -12,8 +12,8 @@ HELP = "quasi-static response (FE or reduced model) or step response, as JSON or
 DESCRIPTION = ("Solve the design's pressure curve with the FE model or the reduced model (--model rom, "
                "characterised by the FE once: templates ship theirs, others are cached): free bending, "
                "pressure-volume, or blocked tip force, with physics effects switched on; or with --dynamic the "
-               "time response to a supply step. Write it as JSON (pnmold.simulation/1) and/or as a recording in "
-               "the lab format (synthetic data).")
+               "time response to a supply step. Write it as JSON (pnmold.simulation/1: docs/json-schemas.md) "
+               "and/or as a recording in the lab format (synthetic data: docs/recording-format.md).")
 
 
 def add_args(parser) -> None:
@@ -31,8 +31,9 @@ def add_args(parser) -> None:
     both.add_argument("--effects", metavar="NAME=VALUE,...",
                       help="physics effects and NAME.PARAM=VALUE (see `pnmold effects`; FE: gravity, "
                       "strain_stiffening, layer_compliance; --dynamic: dead_volume, flow_restriction)")
-    both.add_argument("--recording", metavar="FILE.csv", help="write the result in the recording format")
-    both.add_argument("--json", metavar="FILE", help="write pnmold.simulation/1 JSON")
+    both.add_argument("--recording", metavar="FILE.csv",
+                      help="write the result in the recording format (docs/recording-format.md)")
+    both.add_argument("--json", metavar="FILE", help="write pnmold.simulation/1 JSON (docs/json-schemas.md)")
     noise = parser.add_argument_group("synthetic noise of --recording")
     noise.add_argument("--noise-mm", type=float, default=0.0, metavar="SIGMA",
                        help="Gaussian noise on tip_x_mm and tip_z_mm (standard deviation, mm)")

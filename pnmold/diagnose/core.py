@@ -103,8 +103,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     doc = {
         "schema": SCHEMA,
         "design": design_entry,
-        "recordings": [{"path": r.path, "kind": r.kind, "rows": len(r), "orientation": r.orientation}
-                       for r in recordings],
+        "recordings": [{"path": r.path, "kind": r.kind, "rows": len(r), "orientation": r.orientation,
+                        "conversions": dict(r.conversions)} for r in recordings],
         "baseline": {"calibrated": {k: round(v, 6) for k, v in base.fit.values.items()},
                      "rmse": fit["rmse_before"], "heldout_rmse": fit["heldout_rmse_before"]},
         "noise": {s.name: s.sigma for s in data.series},

@@ -1,5 +1,6 @@
 """Hyperelastic fits of uniaxial tensile (and compression) tests.
 
+Reading the test (pnmold's CSV or a lab's file as published): :mod:`pnmold.materials.tensile`.
 The specimen is incompressible and loaded uniaxially: with the stretch ``lam = 1 + eng_strain``,
 ``I1 = lam**2 + 2/lam`` and the nominal (engineering) stress is
 
@@ -14,7 +15,6 @@ Constants are in MPa (``c10_mpa``, ``mu1_mpa``), exponents are plain numbers (``
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import logging
 import math
@@ -24,9 +24,10 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-from pnmold.errors import RecordingError, UsageError
+from pnmold.errors import UsageError
 from pnmold.fsutil import write_json
-from pnmold.recording import finite_number
+from pnmold.materials.tensile import MIN_POINTS as _MIN_POINTS
+from pnmold.materials.tensile import Specimen, TensileColumns, TensileData, read_tensile
 
 log = logging.getLogger(__name__)
 
@@ -39,113 +40,9 @@ FLOOR_FRACTION = 0.05
 #: a pull-to-failure test has failed at the first point whose stress falls more than this
 #: fraction of the peak stress below the highest stress seen so far
 FAILURE_DROP = 0.10
-_MIN_POINTS = 4
 
-__all__ = ["MODELS", "FitResult", "TensileData", "fit_command", "fit_hyperelastic", "read_tensile"]
-
-_STRAIN, _STRESS, _MODE = "eng_strain", "eng_stress_mpa", "mode"
-
-
-@dataclass(frozen=True)
-class TensileData:
-    """A uniaxial test in engineering strain and stress (MPa), in recorded order.
-
-    ``mode`` is "tension" or "compression" per point; compression points (negative strain)
-    are only read from files with a ``mode`` column.
-    """
-
-    strain: np.ndarray
-    stress_mpa: np.ndarray
-    mode: tuple[str, ...]
-    path: str
-    lines: tuple[int, ...]
-
-
-def _header(rows: list[tuple[int, list[str]]], path: str, n_lines: int) -> tuple[int, dict[str, int]]:
-    """Line and name -> index of the header row (first row that is not a ``#`` comment)."""
-    if not rows and n_lines == 0:
-        raise RecordingError(path, 1, "empty file; expected a header row with eng_strain, eng_stress_mpa")
-    if not rows:
-        raise RecordingError(path, n_lines, "no header row after the comment lines; expected eng_strain, "
-                             "eng_stress_mpa")
-    line, cells = rows[0]
-    names = [c.strip().lower() for c in cells]
-    try:
-        [float(c) for c in cells if c.strip()]
-    except ValueError:
-        pass
-    else:
-        raise RecordingError(path, line, "no header row: expected column names eng_strain, eng_stress_mpa, got numbers")
-    index = {}
-    for i, name in enumerate(names):
-        if name in index and name in (_STRAIN, _STRESS, _MODE):
-            raise RecordingError(path, line, f"column {name!r} appears twice", column=cells[i].strip())
-        index.setdefault(name, i)
-    missing = [n for n in (_STRAIN, _STRESS) if n not in index]
-    if missing:
-        found = ", ".join(c.strip() for c in cells) or "nothing"
-        raise RecordingError(path, line, f"missing column(s) {', '.join(missing)} (case-insensitive); found: {found}",
-                             column=missing[0])
-    return line, index
-
-
-def read_tensile(path: str | Path) -> TensileData:
-    """Read a tensile test CSV: columns ``eng_strain``, ``eng_stress_mpa`` (case-insensitive).
-
-    ``#`` comment lines may come before the header; other columns are ignored. With a ``mode``
-    column (``tension``/``compression``) compression rows with negative strain are read too;
-    without it the file is a tension test and a negative strain is refused.
-    """
-    path = str(path)
-    try:
-        text = Path(path).read_bytes().decode("utf-8-sig")
-    except FileNotFoundError:
-        raise UsageError(f"{path}: no such tensile test file") from None
-    except IsADirectoryError:
-        raise UsageError(f"{path}: is a folder, not a tensile test file") from None
-    except UnicodeDecodeError as err:
-        raise RecordingError(path, None, f"not UTF-8 text ({err.reason})") from None
-    rows, in_header, lines = [], True, text.splitlines()
-    for n, cells in enumerate(csv.reader(lines), start=1):
-        if not cells or not "".join(cells).strip():
-            continue
-        if in_header and cells[0].lstrip().startswith("#"):
-            continue
-        in_header = False
-        rows.append((n, cells))
-    header_line, index = _header(rows, path, len(lines) if text.strip() else 0)
-    has_mode = _MODE in index
-    names = {i: c.strip() for i, c in enumerate(rows[0][1])}
-    strain, stress, modes, where = [], [], [], []
-    for line, cells in rows[1:]:
-        need = max(index[_STRAIN], index[_STRESS], index.get(_MODE, 0))
-        if len(cells) <= need:
-            raise RecordingError(path, line, f"{len(cells)} values, the header has {len(rows[0][1])}",
-                                 column=names[len(cells)] if len(cells) in names else None)
-        e = finite_number(cells[index[_STRAIN]], path, line, names[index[_STRAIN]])
-        s = finite_number(cells[index[_STRESS]], path, line, names[index[_STRESS]])
-        mode = cells[index[_MODE]].strip().lower() if has_mode else "tension"
-        col = names[index[_STRAIN]]
-        if mode not in ("tension", "compression"):
-            raise RecordingError(path, line, f"mode must be tension or compression, got {mode!r}",
-                                 column=names[index[_MODE]])
-        if e <= -1.0:
-            raise RecordingError(path, line, f"strain {e} would compress the specimen to nothing (needs > -1)",
-                                 column=col)
-        if mode == "tension" and e < 0:
-            why = "a tension row" if has_mode else "a tension test (no mode column)"
-            raise RecordingError(path, line, f"negative strain {e} in {why}", column=col)
-        if mode == "compression" and e > 0:
-            raise RecordingError(path, line, f"positive strain {e} in a compression row", column=col)
-        strain.append(e)
-        stress.append(s)
-        modes.append(mode)
-        where.append(line)
-    if len(strain) < _MIN_POINTS:
-        raise RecordingError(path, rows[-1][0] if len(rows) > 1 else header_line,
-                             f"only {len(strain)} data rows; a fit needs at least {_MIN_POINTS}")
-    return TensileData(np.array(strain), np.array(stress), tuple(modes), path, tuple(where))
-
+__all__ = ["MODELS", "FitResult", "Specimen", "TensileColumns", "TensileData", "fit_command", "fit_hyperelastic",
+           "read_tensile"]
 
 def _i1_factor(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(2 (lam - lam^-2), I1 - 3) for incompressible uniaxial loading."""
@@ -182,6 +79,7 @@ class FitResult:
     source: str
     max_strain: float | None = None
     plot: str | None = None
+    read: dict[str, str] | None = None
 
     def fitted(self, data: TensileData) -> np.ndarray:
         """Mask of the points of ``data`` that this fit used (before failure, up to ``max_strain``)."""
@@ -209,6 +107,8 @@ class FitResult:
                "max_strain": self.max_strain, "source": self.source}
         if self.plot:
             out["plot"] = self.plot
+        if self.read:
+            out["read"] = dict(self.read)
         return out
 
     def summary(self) -> str:
@@ -355,21 +255,25 @@ def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, 
 
 
 def fit_command(path: str | Path, model: str = "yeoh", json_path: str | Path | None = None,
-                plot_path: str | Path | None = None) -> FitResult:
-    """``pnmold material fit``: read, fit, plot and (optionally) write the JSON.
+                plot_path: str | Path | None = None, columns: TensileColumns | None = None,
+                specimen: Specimen | None = None, *, nonnegative: bool = False,
+                max_strain: float | None = None) -> FitResult:
+    """``pnmold material fit``: read (:func:`read_tensile` with ``columns`` and ``specimen``), fit
+    (:func:`fit_hyperelastic` with ``nonnegative`` and ``max_strain``), plot and (optionally)
+    write the JSON, which says what was read (``read``).
 
     The plot goes to ``plot_path``, else beside the JSON (same name, ``.png``), else to
     ``out/material-fit/<stem>.png``. Both files are written atomically.
     """
     from pnmold.materials.plot import plot_fit
 
-    data = read_tensile(path)
-    result = fit_hyperelastic(data, model)
+    data = read_tensile(path, columns, specimen)
+    result = fit_hyperelastic(data, model, nonnegative=nonnegative, max_strain=max_strain)
     if plot_path is None:
         plot_path = (Path(json_path).with_suffix(".png") if json_path is not None
                      else Path("out") / "material-fit" / f"{Path(path).stem}.png")
     plot_fit(data, result, plot_path)
-    result = dataclasses.replace(result, plot=str(plot_path))
+    result = dataclasses.replace(result, plot=str(plot_path), read=dict(data.read))
     if json_path is not None:
         write_json(json_path, result.to_json())
     return result
