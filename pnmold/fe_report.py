@@ -1,5 +1,6 @@
 """What a build writes of its quick FE: the ``fem`` section of ``report.json``, the blocked
-force, ``fem_field.npz`` and ``bending.png``."""
+force, ``fem_field.npz``, ``bending.png`` and the ParaView files ``fem/bending.pvd``,
+``fem/step_NNN.vtu``."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import numpy as np
 
 from pnmold.errors import SolveError
 from pnmold.fem import blocked_force_slope
+from pnmold.fem.linsolve import choose_linear_solver
 from pnmold.fsutil import write_bytes
 from pnmold.quickfe import FeRun, material_of, membrane_of
 from pnmold.tetmesh import TetMesh
@@ -35,7 +37,8 @@ def fem_report(run: FeRun) -> dict[str, Any]:
         "mesh": {"nodes": run.quality.n_nodes, "tets": run.quality.n_tets, "half_model": run.size.half,
                  "wall_size_mm": run.size.wall_mm, "max_size_mm": run.size.max_mm,
                  "min_quality_gamma": round(run.quality.min_gamma, 4)},
-        "solver": {k: (round(v, 3) if isinstance(v, float) else v) for k, v in sol.stats.items()},
+        "solver": {"linear_solver": choose_linear_solver(),
+                   **{k: (round(v, 3) if isinstance(v, float) else v) for k, v in sol.stats.items()}},
         "steps": steps,
     }
 
@@ -120,4 +123,20 @@ def bending_figure(run: FeRun, path: str | Path, n_shapes: int = 6) -> Path:
     name = run.design.name
     title = (f"{name}: full bend at {sol.full_bend_pressure_kpa:.1f} kPa" if sol.full_bend_pressure_kpa
              else f"{name}: {sol.reason}")
-    return plot_bending(title, fem_report(run)["steps"], shapes, path, sol.full_bend_pressure_kpa)
+    plot_bending(title, fem_report(run)["steps"], shapes, path, sol.full_bend_pressure_kpa)
+    return Path(path)
+
+
+def write_paraview(run: FeRun, folder: str | Path) -> dict[str, Any]:
+    """``fem/bending.pvd`` and ``fem/step_NNN.vtu`` in ``folder``: every converged step on the
+    quadratic mesh (:mod:`pnmold.export.vtu`); the report's ``fem.paraview`` entry (``pvd``
+    None with the ``reason`` when they could not be written: the build goes on)."""
+    from pnmold.errors import ExportError
+    from pnmold.export.vtu import write_vtu_series
+
+    try:
+        index = write_vtu_series(run.mesh, run.solution, Path(folder) / "fem")
+    except ExportError as err:
+        return {"pvd": None, "reason": str(err)}
+    return {"pvd": f"fem/{index.name}", "steps": len(run.solution.steps),
+            "point_data": ["displacement_mm", "max_principal_stretch"], "cells": "10-node tetrahedra"}

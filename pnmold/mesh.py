@@ -169,11 +169,13 @@ def gmsh_session() -> Iterator[None]:
     ``gmsh.initialize`` resets SIGPIPE to its default action (kill the process), undoing
     Python's SIG_IGN; a later write to a pipe whose reader has died -- a sweep's process
     pool after a worker crashed -- then killed the whole process (exit 141) instead of
-    raising BrokenPipeError. Python's disposition is put back at once."""
-    before = signal.getsignal(signal.SIGPIPE)
+    raising BrokenPipeError. Python's disposition is put back at once (where there is a
+    SIGPIPE: not on Windows)."""
+    sigpipe = getattr(signal, "SIGPIPE", None)
+    before = None if sigpipe is None else signal.getsignal(sigpipe)
     gmsh.initialize(interruptible=False)
     if threading.current_thread() is threading.main_thread() and before is not None:
-        signal.signal(signal.SIGPIPE, before)
+        signal.signal(sigpipe, before)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         yield

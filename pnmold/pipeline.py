@@ -46,6 +46,40 @@ class BuildResult:
     def exit_code(self) -> int:
         return 1 if self.failed_checks else 0
 
+    def steps_frame(self):
+        """The quick FE's steps (``report["fem"]["steps"]``) as a pandas DataFrame, one row per
+        converged step (empty without the FE; UsageError without pandas: ``pnmold[pandas]``)."""
+        from pnmold.frames import dataframe
+
+        return dataframe(self.report["fem"].get("steps", []))
+
+    def _summary(self) -> dict[str, str]:
+        checks = self.report["checks"]
+        passed = sum(c["passed"] is True for c in checks)
+        skipped = sum(c["passed"] is None for c in checks)
+        fem = self.report["fem"]
+        bend = fem.get("full_bend_pressure_kpa")
+        mass_g = sum(p["mass_g"] for p in self.report.get("pours", []))
+        return {"design": f"{self.design.name} ({self.report['design']['digest']})", "folder": str(self.out_dir),
+                "checks": f"{passed} passed, {len(self.failed_checks)} failed, {skipped} skipped",
+                "full bend": f"{bend:.1f} kPa" if bend is not None else f"- ({fem.get('reason')})",
+                "elastomer": f"{mass_g:.1f} g", "time": f"{sum(self.report['timings_s'].values()):.1f} s"}
+
+    def __repr__(self) -> str:
+        s = self._summary()
+        return (f"<BuildResult {s['design']} in {s['folder']}: checks {s['checks']}; full bend {s['full bend']}; "
+                f"elastomer {s['elastomer']}>")
+
+    def _repr_html_(self) -> str:
+        """The summary as a small table (Jupyter shows it for a build result)."""
+        from html import escape
+
+        rows = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>{escape(v)}"
+                       f"</td></tr>" for k, v in self._summary().items())
+        failed = "".join(f"<li>{escape(c['id'])}: {escape(str(c['message']))}</li>" for c in self.failed_checks)
+        return (f"<table><caption style='text-align:left'><b>pnmold build</b></caption>{rows}</table>"
+                + (f"<p>failed checks:</p><ul>{failed}</ul>" if failed else ""))
+
 
 def default_out_dir(design: Design) -> Path:
     return Path("out") / design.name
@@ -129,8 +163,8 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
 
 
 def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
-    """Bend the exported actuator; write ``bending.png``; the report's ``fem`` section."""
-    from pnmold.fe_report import bending_figure, blocked_force_report, fem_report, write_field
+    """Bend the exported actuator; write ``bending.png`` and ``fem/*.vtu``; the report's ``fem`` section."""
+    from pnmold.fe_report import bending_figure, blocked_force_report, fem_report, write_field, write_paraview
     from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, run_fe
 
     run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH, options=BUILD_OPTIONS,
@@ -138,6 +172,7 @@ def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dic
     bending_figure(run, folder / "bending.png")
     write_field(run, folder / "fem_field.npz")
     section = fem_report(run)
+    section["paraview"] = write_paraview(run, folder)
     section["blocked_force"] = blocked_force_report(run)
     section["timings_s"] = {**run.timings_s, "blocked_force": section["blocked_force"].get("seconds")}
     return section

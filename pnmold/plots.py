@@ -1,52 +1,84 @@
-"""Figures a person looks at (matplotlib, Agg): the bending figure of a build."""
+"""Figures a person looks at, as matplotlib :class:`~matplotlib.figure.Figure` objects.
+
+No pyplot and no backend switch: importing or calling pnmold leaves matplotlib's global state
+(a notebook's backend, pyplot's figures) as it was. Every plotting function of pnmold draws
+on the axes passed as ``ax=`` (then their figure is the one returned) or on a new figure,
+returns the figure, and with a ``path`` also saves it atomically (:func:`save_figure`). In a
+notebook a returned figure shows as the cell's value or with ``display(fig)``.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from pnmold.fsutil import atomic_path  # noqa: E402
+from pnmold.errors import UsageError
+from pnmold.fsutil import atomic_path
 
 
-def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
-    """Save atomically (temporary name, then rename) and close the figure."""
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
-    finally:
-        plt.close(fig)
+def figure_axes(ax: Any, shape: tuple[int, int], figsize: tuple[float, float], **subplots: Any
+                ) -> tuple[Figure, np.ndarray]:
+    """The figure and the ``shape`` grid of axes to draw on: those given (``ax``: one Axes, or a
+    sequence or array of ``rows x columns`` of them) or a new figure's (``subplots``: passed to
+    :meth:`Figure.subplots`, e.g. ``sharex``)."""
+    if ax is None:
+        fig = Figure(figsize=figsize)
+        return fig, fig.subplots(*shape, squeeze=False, **subplots)
+    given = np.asarray(ax, dtype=object)
+    if given.size != shape[0] * shape[1]:
+        raise UsageError(f"ax: this figure draws on {shape[0]} x {shape[1]} axes, got {given.size}")
+    axes = given.reshape(shape)
+    return axes.flat[0].figure, axes
+
+
+def save_figure(fig: Figure, path: str | Path, dpi: int = 120, tight: bool = True) -> Path:
+    """Save ``fig`` as the file ``path`` says (PNG, SVG, PDF, ...), atomically: to a temporary
+    name beside it, then renamed over it."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, bbox_inches="tight" if tight else None)
     return Path(path)
 
 
 def plot_bending(title: str, steps: list[dict[str, Any]], shapes: list[tuple[float, np.ndarray, np.ndarray]],
-                 path: str | Path, full_bend_kpa: float | None = None) -> Path:
+                 path: str | Path | None = None, full_bend_kpa: float | None = None, *,
+                 ax: Sequence[Any] | None = None) -> Figure:
     """Deformed shapes and the tip trajectory (like the supplement's Fig. S5 E-F), the
     bend angle against pressure and the pressure-volume curve.
 
-    ``shapes``: (pressure_kpa, bottom_xz, top_xz) polylines in mm; ``steps``: the
-    ``fem.steps`` dicts of report.json."""
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    ax = axes[0]
-    cmap = plt.get_cmap("viridis")
+    Parameters
+    ----------
+    title : the figure's title (on a new figure only).
+    steps : the ``fem.steps`` dicts of report.json.
+    shapes : (pressure_kpa, bottom_xz, top_xz) polylines in mm.
+    path : also save the figure there (atomically).
+    full_bend_kpa : marked on the bend-angle panel.
+    ax : three axes to draw on (shapes, bend angle, pressure-volume); default a new figure.
+
+    Returns
+    -------
+    The figure drawn on.
+    """
+    from matplotlib import colormaps
+
+    fig, grid = figure_axes(ax, (1, 3), (15, 4.6))
+    axes = grid[0]
+    shape_ax = axes[0]
+    cmap = colormaps["viridis"]
     pmax = max((p for p, _, _ in shapes), default=1.0) or 1.0
     for p, bottom, top in shapes:
         colour = cmap(p / pmax)
-        ax.plot(bottom[:, 0], bottom[:, 1], "-", color=colour, lw=1.6, label=f"{p:.0f} kPa")
-        ax.plot(top[:, 0], top[:, 1], ".", color=colour, ms=1.5)
-    tip_x = [s["tip_x_mm"] for s in steps]
-    tip_z = [s["tip_z_mm"] for s in steps]
-    ax.plot(tip_x, tip_z, "k--", lw=1, label="tip trajectory")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("z (mm)")
-    ax.set_title("deformed shape (y = 0) and tip")
-    ax.legend(fontsize=7, loc="best")
+        shape_ax.plot(bottom[:, 0], bottom[:, 1], "-", color=colour, lw=1.6, label=f"{p:.0f} kPa")
+        shape_ax.plot(top[:, 0], top[:, 1], ".", color=colour, ms=1.5)
+    shape_ax.plot([s["tip_x_mm"] for s in steps], [s["tip_z_mm"] for s in steps], "k--", lw=1, label="tip trajectory")
+    shape_ax.set_aspect("equal")
+    shape_ax.set_xlabel("x (mm)")
+    shape_ax.set_ylabel("z (mm)")
+    shape_ax.set_title("deformed shape (y = 0) and tip")
+    shape_ax.legend(fontsize=7, loc="best")
     p = [s["pressure_kpa"] for s in steps]
     axes[1].plot(p, [s["bend_angle_deg"] for s in steps], "o-", ms=3)
     axes[1].axhline(360, color="grey", ls=":", lw=1)
@@ -63,5 +95,8 @@ def plot_bending(title: str, steps: list[dict[str, Any]], shapes: list[tuple[flo
     axes[2].set_title("pressure-volume")
     for a in axes:
         a.grid(alpha=0.3)
-    fig.suptitle(title)
-    return save_figure(fig, path)
+    if ax is None:
+        fig.suptitle(title)
+    if path is not None:
+        save_figure(fig, path)
+    return fig

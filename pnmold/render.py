@@ -121,12 +121,10 @@ def strain_picture(field_path: str | Path) -> bytes:
 
 def curve_png(series: list[tuple[list[float], list[float], str]], xlabel: str, ylabel: str, title: str) -> bytes:
     """PNG of one or more (x, y, label) curves."""
-    import matplotlib
+    from matplotlib.figure import Figure  # no pyplot, no backend switch (pnmold.plots)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5.2, 3.6))
+    fig = Figure(figsize=(5.2, 3.6))
+    ax = fig.subplots()
     for x, y, label in series:
         ax.plot(x, y, "o-", ms=3, label=label)
     ax.set_xlabel(xlabel)
@@ -137,7 +135,6 @@ def curve_png(series: list[tuple[list[float], list[float], str]], xlabel: str, y
         ax.legend(fontsize=8)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
     return buf.getvalue()
 
 

@@ -86,20 +86,23 @@ class Simulation:
 
 def simulate(design: Design, request: SimulationRequest, *, json_path: str | Path | None = None,
              recording_path: str | Path | None = None, noise: Noise | None = None,
-             progress: Callable[[str], None] | None = None) -> Simulation:
+             progress: Callable[[str], None] | None = None, vtu_dir: str | Path | None = None) -> Simulation:
     """Solve the request with its model (``rom`` characterises the design first, cached, with
-    ``progress``) and write the JSON and/or the recording (with ``noise``), atomically."""
+    ``progress``) and write the JSON and/or the recording (with ``noise``), atomically; with
+    ``vtu_dir`` (FE only) also the field of every converged step for ParaView (:func:`simulate_fe`)."""
     from pnmold.fsutil import write_json
     from pnmold.recording import write_recording
 
+    if vtu_dir is not None and request.model != "fe":
+        raise UsageError("--vtu: only the FE model (--model fe) has fields to write")
     if request.model == "rom":
         from pnmold.physics.characterise import characterise
 
         doc = simulate_rom(design, request, characterise(design, size=_mesh_size(request, None, rom=True),
                                                           progress=progress))
     else:
-        doc = simulate_fe(design, request)
-    written = []
+        doc = simulate_fe(design, request, vtu_dir=vtu_dir)
+    written = [Path(doc["paraview"]["pvd"])] if vtu_dir is not None else []
     if json_path:
         written.append(write_json(json_path, doc))
     if recording_path:
@@ -160,21 +163,30 @@ def _mesh_size(request: SimulationRequest, default: MeshSize | None = None, rom:
     return MeshSize(*request.mesh_size)
 
 
-def simulate_fe(design: Design, request: SimulationRequest) -> dict[str, Any]:
-    """Solve with the FE model; return the ``pnmold.simulation/1`` document."""
+def simulate_fe(design: Design, request: SimulationRequest, *, vtu_dir: str | Path | None = None) -> dict[str, Any]:
+    """Solve with the FE model; return the ``pnmold.simulation/1`` document. With ``vtu_dir``
+    write every converged step there as VTU with a ``.pvd`` index (``bending.pvd``, or
+    ``force.pvd`` for blocked force; :mod:`pnmold.export.vtu`), named in the document's
+    ``paraview``."""
     from pnmold.quickfe import run_fe
 
     run = run_fe(design, orientation=request.orientation, effects=dict(request.effects),
                  pressures_kpa=request.pressures_kpa, kind="force" if request.kind == "force" else "bending",
                  size=_mesh_size(request))
     sol = run.solution
+    paraview = {}
+    if vtu_dir is not None:
+        from pnmold.export.vtu import write_vtu_series
+
+        index = write_vtu_series(run.mesh, sol, vtu_dir, name="force" if request.kind == "force" else "bending")
+        paraview = {"paraview": {"pvd": str(index), "steps": len(sol.steps)}}
     wanted = set(np.round(request.pressures_kpa, 6))
     inflate = [s.as_dict() for s in sol.steps if round(s.pressure_kpa, 6) in wanted]
     steps = _with_time(_cycled(inflate, request.cycles), request.rate_kpa_per_s)
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "fe",
             "kind": request.kind, "orientation": request.orientation if run.gravity_g else NO_GRAVITY,
             "effects": dict(request.effects), "steps": steps, "full_bend_pressure_kpa": sol.full_bend_pressure_kpa,
-            "reason": sol.reason}
+            "reason": sol.reason, **paraview}
 
 
 def simulate_rom(design: Design, request: SimulationRequest, characterisation=None) -> dict[str, Any]:

@@ -7,6 +7,7 @@
 #   libegl-mesa0 ...  EGL with Mesa's software renderer: pnmold.render draws the report's
 #                     pictures with VTK off screen, without a display or a GPU
 #   chromium ...      headless browser and its WebDriver: the test of report.html opens the page
+#   calculix-ccx      CalculiX: tests/test_export.py runs pnmold's exported Abaqus/CalculiX deck
 #
 # Only missing packages are installed (checked with `dpkg -s`); when nothing is missing,
 # apt is not touched and root is not needed. Otherwise run as root, or with sudo present.
@@ -19,6 +20,7 @@ PACKAGES=(
     prusa-slicer
     libegl1 libegl-mesa0 libgl1-mesa-dri
     chromium chromium-driver
+    calculix-ccx
 )
 
 is_installed() {

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -133,3 +135,60 @@ def test_unexpected_errors_and_ctrl_c_have_their_own_exit_codes(raised, code, mo
         assert "unexpected error (RuntimeError): a bug" in err and "-v" in err
         assert main(["templates", "-v"]) == 70
         assert "Traceback" in capsys.readouterr().err
+
+
+# -- --json -: the JSON alone on standard output ------------------------------------------------
+@pytest.mark.parametrize("argv", [["effects", "--json"], ["effects", "--json", "-"], ["effects", "-q", "--json", "-"]],
+                         ids=["flag", "dash", "quiet"])
+def test_effects_json_goes_to_stdout(argv, capsys):
+    assert main(argv) == 0
+    catalogue = json.loads(capsys.readouterr().out)
+    assert [e["name"] for e in catalogue][:2] == ["gravity", "strain_stiffening"]
+
+
+def test_effects_json_into_a_file(tmp_path, capsys):
+    assert main(["effects", "--json", str(tmp_path / "e.json")]) == 0
+    assert len(json.loads((tmp_path / "e.json").read_text())) == 8
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_simulate_json_dash_puts_only_the_document_on_stdout(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "fpn", "--model", "rom", "--pressures", "0:20:10", "--json", "-"]) == 0
+    out, err = capsys.readouterr()
+    doc = json.loads(out)  # nothing else on stdout
+    assert doc["schema"] == "pnmold.simulation/1" and len(doc["steps"]) == 3
+    assert "full bend" in err  # what a person reads went to stderr
+    assert not list(tmp_path.iterdir())  # and no file named "-"
+
+
+def test_material_fit_json_dash_puts_only_the_fit_on_stdout(tmp_path, monkeypatch, capsys):
+    data = Path("tests/data/ecoflex0030_uniaxial_tension.csv").resolve()
+    monkeypatch.chdir(tmp_path)
+    assert main(["material", "fit", str(data), "--json", "-"]) == 0
+    out, err = capsys.readouterr()
+    fit = json.loads(out)
+    assert fit["c10_mpa"] > 0 and "R2" in err
+    assert (tmp_path / "out" / "material-fit" / f"{data.stem}.png").is_file() and not (tmp_path / "-").exists()
+
+
+@pytest.mark.parametrize("argv", [["diagnose", "fpn", "rec.csv"],
+                                  ["simulate", "fpn", "--dynamic", "--supply-kpa", "50"]], ids=["diagnose", "dynamic"])
+def test_diagnose_and_dynamic_json_dash_reach_stdout(argv, monkeypatch, capsys):
+    """The verbs hand the library no file for ``-`` and print its document themselves (the
+    library calls are stand-ins here: their own tests run them)."""
+    import pnmold.diagnose.run
+    import pnmold.pneumatics.study
+
+    seen = {}
+
+    def fake(*args, json_path=None, **kwargs):
+        seen["json_path"] = json_path
+        doc = {"schema": "stand-in", "summary": "s", "mismatch": [], "recordings": []}
+        return SimpleNamespace(doc=doc, document=doc, summary=["one line"], written=[])
+
+    monkeypatch.setattr(pnmold.diagnose.run, "diagnose_recordings", fake)
+    monkeypatch.setattr(pnmold.pneumatics.study, "run_step_study", fake)
+    assert main([*argv, "--json", "-"]) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)["schema"] == "stand-in" and seen == {"json_path": None}

@@ -17,7 +17,7 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 from skfem import MeshTet
 
-from pnmold.errors import SolveError
+from pnmold.errors import SolveError, UsageError
 from pnmold.fem import (
     Load,
     Membrane,
@@ -452,3 +452,29 @@ def test_pardiso_reuses_its_analysis_for_the_same_pattern():
     assert np.allclose(solver.solve(b), b / 2)
     assert solver.n_analyses == 2
     solver.release()
+
+
+def test_the_scipy_fallback_solves_the_same_curve_as_pardiso(beam, monkeypatch):
+    """Where pypardiso is missing (no MKL wheels) the FE factors with SciPy's SuperLU, chosen by
+    :func:`linear_solver`; forced here with PNMOLD_LINEAR_SOLVER. On a nonlinear curve with
+    gravity (two load stages, reused factorisations) it takes the same steps and lands on the
+    same states as PARDISO, to round-off (1e-14 mm here)."""
+    from pnmold.fem.linsolve import Pardiso, SuperLU, choose_linear_solver
+
+    curves = {}
+    for name, kind in (("pardiso", Pardiso), ("scipy", SuperLU)):
+        monkeypatch.setenv("PNMOLD_LINEAR_SOLVER", name)
+        assert choose_linear_solver() == name
+        assert isinstance(Newton(Model(beam, Yeoh(), Membrane(), {"clamp": (0, 1, 2)})).linear, kind)
+        curves[name] = solve_bending(beam, max_pressure_kpa=100.0, gravity=(0, 0, -1))
+    ref, alt = curves["pardiso"], curves["scipy"]
+    assert ref.steps[-1].bend_angle_deg > 15 and len(ref.steps) > 8  # well into the nonlinear range
+    assert [s.pressure_kpa for s in alt.steps] == pytest.approx([s.pressure_kpa for s in ref.steps], rel=1e-12)
+    scale = np.abs(ref.displacement_mm).max()
+    assert np.abs(alt.displacement_mm - ref.displacement_mm).max() < 1e-8 * scale
+    for a, r in zip(alt.steps, ref.steps, strict=True):
+        assert a.bend_angle_deg == pytest.approx(r.bend_angle_deg, rel=1e-9, abs=1e-9)
+        assert a.cavity_volume_ml == pytest.approx(r.cavity_volume_ml, rel=1e-9)
+    monkeypatch.setenv("PNMOLD_LINEAR_SOLVER", "umfpack")
+    with pytest.raises(UsageError, match="PNMOLD_LINEAR_SOLVER=umfpack: one of pardiso, scipy"):
+        choose_linear_solver()

@@ -389,3 +389,38 @@ def test_one_coordinator_per_database_and_no_lock_file_left(tmp_path):
     with SweepStore(db):  # free again
         pass
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.endswith(".lock")) == []
+
+
+# -- optional parts: Dask only with --scheduler; portable lock and memory figures ---------------
+def test_a_local_sweep_runs_where_dask_is_not_installed(tmp_path):
+    """Without the ``cluster`` extra: dask and distributed cannot be imported, and a local sweep
+    (the test's instant worker in a spawned process) still records its rows."""
+    spec_path = write(tmp_path, '[sweep]\nname = "nodask"\nbase = "fpn"\n[axes]\nchambers.count = [3, 5]\n')
+    code = f"""
+import sys
+sys.modules["dask"] = sys.modules["distributed"] = None  # import dask -> ImportError
+from pnmold.sweep import load_sweep, run_sweep
+from tests.test_sweep import crashing_worker
+result = run_sweep(load_sweep({str(spec_path)!r}), {str(tmp_path / "n.sqlite")!r}, workers=1, worker=crashing_worker)
+print(sorted(r["status"] for r in result.rows))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip().splitlines()[-1] == "['ok', 'ok']"
+
+
+def test_a_scheduler_without_dask_is_bad_usage_naming_the_extra(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    spec = write(tmp_path, SMALL)
+    assert main(["sweep", str(spec), "--db", str(tmp_path / "s.sqlite"), "--scheduler", "tcp://127.0.0.1:1",
+                 "--quiet"]) == 2
+    assert "pip install 'pnmold[cluster]'" in capsys.readouterr().err
+
+
+def test_the_workers_peak_memory_is_read_in_megabytes():
+    import psutil
+
+    from pnmold.sweep.run import max_rss_mb
+
+    peak = max_rss_mb()
+    assert psutil.Process().memory_info().rss / 2**20 * 0.9 <= peak < 100_000

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any
 
 from rich.console import Console
 from rich.markup import escape
@@ -21,6 +24,38 @@ def output_flags(default=argparse.SUPPRESS) -> argparse.ArgumentParser:
                        help="log debug messages; print the traceback of an unexpected error")
     flags.add_argument("-q", "--quiet", action="store_true", default=default, help="print only errors and failures")
     return flags
+
+
+#: ``--json -``: the JSON goes to standard output
+STDOUT = "-"
+
+
+def json_file(args) -> str | None:
+    """The file ``--json`` names, for the library to write; None when there is none or it is
+    standard output (``--json -``: the verb then calls :func:`emit_json`)."""
+    path = getattr(args, "json", None)
+    return None if path in (None, STDOUT) else path
+
+
+def emit_json(args, doc: Any) -> None:
+    """With ``--json -``, ``doc`` on standard output (as the library writes its JSON files)."""
+    if getattr(args, "json", None) == STDOUT:
+        sys.stdout.write(json.dumps(doc, indent=2, allow_nan=False) + "\n")
+        sys.stdout.flush()
+
+
+@contextmanager
+def stdout_for_json(args) -> Iterator[None]:
+    """With ``--json -`` standard output carries the JSON only: what the verb prints for a person
+    goes to standard error meanwhile."""
+    if getattr(args, "json", None) != STDOUT:
+        yield
+        return
+    out_console.file = sys.stderr
+    try:
+        yield
+    finally:
+        out_console.file = None  # back to whatever sys.stdout is
 
 
 def add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:

@@ -16,6 +16,7 @@ from pnmold.cli import (
     checklist,
     diagnose,
     effects,
+    export,
     material,
     recording,
     report,
@@ -23,14 +24,14 @@ from pnmold.cli import (
     sweep,
     templates,
 )
-from pnmold.cli._common import err_console, output_flags
+from pnmold.cli._common import err_console, output_flags, stdout_for_json
 from pnmold.errors import EXIT_INTERRUPTED, EXIT_UNEXPECTED, PnmoldError
 from pnmold.version import __version__
 
 #: verb -> its module, in the order ``--help`` lists them
 VERBS = {"build": build, "check": check, "report": report, "simulate": simulate, "checklist": checklist,
          "material": material, "sweep": sweep, "diagnose": diagnose, "effects": effects, "templates": templates,
-         "recording": recording}
+         "recording": recording, "export": export}
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -56,7 +57,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     try:
-        return args.handler(args)
+        with stdout_for_json(args):  # --json -: standard output carries the JSON only
+            return args.handler(args)
     except PnmoldError as err:
         err_console.print(f"[red]error[/red] ({type(err).__name__}): {escape(str(err))}")
         return err.exit_code

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rich.markup import escape
 
-from pnmold.cli._common import add_design, load, out_console, stages
+from pnmold.cli._common import add_design, emit_json, json_file, load, out_console, stages
 
 HELP = "compare recordings with the model and name the missing physics"
 DESCRIPTION = ("Compare lab recordings (CSV: see docs/recording-format.md; pressures in kPa, psi, bar, ... and "
@@ -19,7 +19,8 @@ def add_args(parser) -> None:
     parser.add_argument("recordings", nargs="+", metavar="RECORDING.csv",
                         help="recordings (bending, pv, force, step; docs/recording-format.md)")
     parser.add_argument("--json", metavar="FILE",
-                        help="write the diagnosis (schema pnmold.diagnosis/1: docs/json-schemas.md)")
+                        help="write the diagnosis (schema pnmold.diagnosis/1: docs/json-schemas.md); - for "
+                        "standard output")
     parser.add_argument("--report", metavar="DIR", help="write report.html with before/after plots into DIR")
     parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling (default 0)")
 
@@ -29,8 +30,9 @@ def run(args) -> int:
 
     design = load(args)
     with stages(args, f"characterise {design.name} (once)") as say:
-        diag = diagnose_recordings(design, args.recordings, seed=args.seed, json_path=args.json,
+        diag = diagnose_recordings(design, args.recordings, seed=args.seed, json_path=json_file(args),
                                    report_dir=args.report, progress=say)
+    emit_json(args, diag.doc)
     if not args.quiet:
         for r in diag.doc["recordings"]:
             for column, how in r.get("conversions", {}).items():

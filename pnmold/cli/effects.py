@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import json
-import sys
-
 from rich.markup import escape
 
-from pnmold.cli._common import out_console
+from pnmold.cli._common import STDOUT, emit_json, json_file, out_console, say
 
 HELP = "the catalogue of physics effects"
 DESCRIPTION = ("The catalogue of physics effects: name, parameter, unit, default, plausible bounds, the "
@@ -15,14 +12,20 @@ DESCRIPTION = ("The catalogue of physics effects: name, parameter, unit, default
 
 
 def add_args(parser) -> None:
-    parser.add_argument("--json", action="store_true", help="print the catalogue as JSON")
+    parser.add_argument("--json", nargs="?", const=STDOUT, metavar="FILE",
+                        help="the catalogue as JSON: on standard output (--json or --json -) or into FILE")
 
 
 def run(args) -> int:
     from pnmold.effects import EFFECTS, catalogue_json
 
+    if args.json == STDOUT:
+        emit_json(args, catalogue_json())
+        return 0
     if args.json:
-        sys.stdout.write(json.dumps(catalogue_json(), indent=2) + "\n")
+        from pnmold.fsutil import write_json
+
+        say(f"wrote {write_json(json_file(args), catalogue_json())}", args)
         return 0
     for e in EFFECTS.values():
         lo, hi = e.bounds

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rich.markup import escape
 
-from pnmold.cli._common import out_console, output_flags
+from pnmold.cli._common import emit_json, json_file, out_console, output_flags
 
 HELP = "elastomer library and hyperelastic fits"
 DESCRIPTION = "The elastomer library, and hyperelastic fits of tensile tests."
@@ -23,7 +23,8 @@ def add_args(parser) -> None:
         "specimen's size. See docs/tensile-files.md.")
     fit.add_argument("tensile", metavar="TENSILE.csv")
     fit.add_argument("--model", choices=["yeoh", "neo-hookean", "ogden"], default="yeoh")
-    fit.add_argument("--json", metavar="FILE", help="write the fit as JSON (the plot goes beside it)")
+    fit.add_argument("--json", metavar="FILE",
+                     help="write the fit as JSON (the plot goes beside it); - for standard output")
     fit.add_argument("--max-strain", type=float, metavar="E",
                      help="fit only the points up to this engineering strain (e.g. what the actuator's walls see)")
     fit.add_argument("--nonnegative", action="store_true",
@@ -60,8 +61,9 @@ def run_fit(args) -> int:
                              args.extension_column, args.strain_unit, args.stress_unit, args.force_unit,
                              args.extension_unit)
     specimen = Specimen(args.gauge_length_mm, args.area_mm2, args.width_mm, args.thickness_mm)
-    result = fit_command(args.tensile, args.model, json_path=args.json, columns=columns, specimen=specimen,
+    result = fit_command(args.tensile, args.model, json_path=json_file(args), columns=columns, specimen=specimen,
                          nonnegative=args.nonnegative, max_strain=args.max_strain)
+    emit_json(args, result.to_json())
     if not args.quiet:
         for what, how in (result.read or {}).items():
             out_console.print(f"{what}: {escape(how)}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from rich.markup import escape
 
-from pnmold.cli._common import add_design, err_console, load, out_console, stages
+from pnmold.cli._common import add_design, emit_json, err_console, json_file, load, out_console, stages
 from pnmold.conventions import ORIENTATIONS, QUASI_STATIC_KINDS
 
 HELP = "quasi-static response (FE or reduced model) or step response, as JSON or a recording"
@@ -31,9 +31,13 @@ def add_args(parser) -> None:
     both.add_argument("--effects", metavar="NAME=VALUE,...",
                       help="physics effects and NAME.PARAM=VALUE (see `pnmold effects`; FE: gravity, "
                       "strain_stiffening, layer_compliance; --dynamic: dead_volume, flow_restriction)")
+    both.add_argument("--vtu", metavar="DIR",
+                      help="--model fe: write every converged step as DIR/step_NNN.vtu with DIR/bending.pvd "
+                      "(force.pvd for --kind force) for ParaView")
     both.add_argument("--recording", metavar="FILE.csv",
                       help="write the result in the recording format (docs/recording-format.md)")
-    both.add_argument("--json", metavar="FILE", help="write pnmold.simulation/1 JSON (docs/json-schemas.md)")
+    both.add_argument("--json", metavar="FILE",
+                      help="write pnmold.simulation/1 JSON (docs/json-schemas.md); - for standard output")
     noise = parser.add_argument_group("synthetic noise of --recording")
     noise.add_argument("--noise-mm", type=float, default=0.0, metavar="SIGMA",
                        help="Gaussian noise on tip_x_mm and tip_z_mm (standard deviation, mm)")
@@ -69,8 +73,9 @@ def run(args) -> int:
                                 args.orientation, parse_effects(args.effects), args.rate_kpa_per_s)
     noise = Noise(args.noise_mm, args.noise_ml, args.noise_n, args.seed)
     with stages(args, f"characterise {design.name} (once)") as say:
-        doc = simulate(design, request, json_path=args.json, recording_path=args.recording, noise=noise,
-                       progress=say).doc
+        doc = simulate(design, request, json_path=json_file(args), recording_path=args.recording, noise=noise,
+                       progress=say, vtu_dir=args.vtu).doc
+    emit_json(args, doc)
     if not args.quiet:
         for s in doc["steps"]:
             extra = f", force {s['force_n']:.3f} N" if "force_n" in s else ""
@@ -94,7 +99,9 @@ def _run_dynamic(args) -> int:
                   tubing_id_mm=args.tubing_id_mm, vent_at_s=args.vent_at_s, effects=effects)
     say = None if args.quiet else (lambda msg: err_console.print(f"[dim]…[/dim] {escape(msg)}"))
     study = run_step_study(design, rig, duration_s=args.duration_s, gas_law=args.gas_law, effects=effects,
-                           json_path=args.json, recording_path=args.recording, plot_path=args.plot, progress=say)
+                           json_path=json_file(args), recording_path=args.recording, plot_path=args.plot,
+                           progress=say)
+    emit_json(args, study.document)
     if not args.quiet:
         for line in study.summary:
             out_console.print(escape(line))

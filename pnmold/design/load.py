@@ -24,9 +24,20 @@ _TYPES = {"int": int, "float": float, "str": str}
 
 
 def templates_dir() -> Path:
-    """Folder of the design templates (``PNMOLD_TEMPLATES`` overrides)."""
+    """Folder of the design templates.
+
+    ``PNMOLD_TEMPLATES`` when set; else the source checkout's top-level ``templates/`` when
+    pnmold runs from one (beside ``pyproject.toml``); else the copy a wheel ships in the
+    package, ``pnmold/templates/`` (``setup.py`` puts it there).
+    """
     env = os.environ.get("PNMOLD_TEMPLATES")
-    return Path(env) if env else Path(__file__).resolve().parents[2] / "templates"
+    if env:
+        return Path(env)
+    package = Path(__file__).resolve().parents[1]
+    checkout = package.parent
+    if (checkout / "pyproject.toml").is_file() and (checkout / "templates").is_dir():
+        return checkout / "templates"
+    return package / "templates"
 
 
 def list_templates() -> dict[str, str]:

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .core import Diagnosis, by_series
 from .fitting import zscores
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def _x(rec) -> tuple[np.ndarray, str]:
@@ -16,12 +20,13 @@ def _x(rec) -> tuple[np.ndarray, str]:
     return np.asarray(rec.columns["pressure_kpa"], float), "pressure (kPa)"
 
 
-def fit_figure(diag: Diagnosis, path: str | Path) -> Path:
-    """One column per series: data, baseline and final model on top, residuals below."""
-    import matplotlib
+def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = None) -> Figure:
+    """One column per series: data, baseline and final model on top, residuals below.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    ``ax``: a 2 x (number of series) grid of axes to draw on (default a new figure);
+    ``path``: also save the figure there (atomically). Returns the figure.
+    """
+    from pnmold.plots import figure_axes, save_figure
 
     data, dec = diag.data, diag.decision
     base = dec.baseline.fit.predictions
@@ -29,8 +34,7 @@ def fit_figure(diag: Diagnosis, path: str | Path) -> Path:
     zb = by_series(data, zscores(data, base))
     zf = by_series(data, zscores(data, final))
     n = len(data.series)
-    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 6.2), squeeze=False, sharex="col",
-                             gridspec_kw={"height_ratios": [2, 1]})
+    fig, axes = figure_axes(ax, (2, n), (4.2 * n, 6.2), sharex="col", gridspec_kw={"height_ratios": [2, 1]})
     label = dec.final.label
     for j, s in enumerate(data.series):
         rec = data.recordings[s.recording]
@@ -50,19 +54,16 @@ def fit_figure(diag: Diagnosis, path: str | Path) -> Path:
         for m in diag.doc["mismatch"]:
             if m["observable"] == s.observable:
                 a, b = next(iter(m["window"].values()))
-                for ax in (top, bottom):
-                    ax.axvspan(a, b, color="gold", alpha=0.25)
+                for panel in (top, bottom):
+                    panel.axvspan(a, b, color="gold", alpha=0.25)
         bottom.set_xlabel(xlabel)
         bottom.set_ylabel("residual")
         if j == 0:
             top.legend(fontsize=7)
             bottom.legend(fontsize=7)
-    fig.suptitle(diag.doc["summary"][:160] + ("..." if len(diag.doc["summary"]) > 160 else ""), fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    if ax is None:
+        fig.suptitle(diag.doc["summary"][:160] + ("..." if len(diag.doc["summary"]) > 160 else ""), fontsize=8)
+        fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, dpi=110, tight=False)
+    return fig

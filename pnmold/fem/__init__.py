@@ -13,7 +13,8 @@ Formulation (details in the module docstrings):
   y = 0 symmetry, a penalty contact plane for blocked force.
 - :mod:`.kernels` -- compiled element kernels (energy, residual, tangent).
 - :mod:`.newton` / :mod:`.linsolve` -- Newton with a guarded line search, adaptive load
-  steps with extrapolated predictors; PARDISO LDL^T with the analysis done once.
+  steps with extrapolated predictors; PARDISO LDL^T with the analysis done once (SciPy's
+  SuperLU where pypardiso is missing, or with ``PNMOLD_LINEAR_SOLVER=scipy``).
 - :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
   :func:`blocked_force_slope` (the blocked force to first order in pressure),
   :class:`Step` and :class:`Solution`.

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SolveError
-from .linsolve import Pardiso
+from .linsolve import linear_solver
 from .model import Evaluation, Load, Model
 
 log = logging.getLogger(__name__)
@@ -102,7 +102,7 @@ class Newton:
     def __init__(self, model: Model, options: NewtonOptions | None = None):
         self.model = model
         self.options = options or NewtonOptions()
-        self.linear = Pardiso()
+        self.linear = linear_solver()
         self.stats = Stats()
         self._span = float(np.ptp(model.X, axis=0).max()) if model.X.size else 1.0
         self._floor = 0.0

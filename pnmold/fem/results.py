@@ -56,6 +56,9 @@ class Solution:
         (linearly interpolated between steps), or None; then ``reason`` says why.
     stats : unknowns, increments, factorisations, timings (s).
     shapes_mm : (n_nodes, 3) displacement at every step, for pictures of the bend.
+    states : the full P2 displacement vector (mm) at every step, node-major ``3 s + c`` in the
+        numbering of scikit-fem's ``ElementTetP2`` on ``MeshTet(mesh.nodes_mm.T, mesh.tets.T)``
+        (vertices first, then edge nodes), for field output (:mod:`pnmold.export`).
     """
 
     steps: tuple[Step, ...]
@@ -64,10 +67,18 @@ class Solution:
     reason: str | None = None
     stats: dict = field(default_factory=dict)
     shapes_mm: tuple[np.ndarray, ...] = ()  # displacement of the mesh nodes at every step
+    states: tuple[np.ndarray, ...] = ()  # the full P2 displacement vector at every step
 
     @property
     def max_pressure_kpa(self) -> float:
         return self.steps[-1].pressure_kpa if self.steps else 0.0
+
+    def to_dataframe(self):
+        """The steps as a pandas DataFrame, one row per converged step, the columns of
+        :meth:`Step.as_dict` (``pip install 'pnmold[pandas]'``; UsageError without pandas)."""
+        from ..frames import dataframe
+
+        return dataframe([s.as_dict() for s in self.steps])
 
 
 def full_bend_pressure(steps: tuple[Step, ...] | list[Step]) -> tuple[float | None, str | None]:

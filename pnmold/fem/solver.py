@@ -104,12 +104,14 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
                                 what="gravity factor", unit="g")
         steps: list[Step] = [observer.step(0.0, u, newton.evaluate(u, load(0.0)), blocked)]
         shapes: list[np.ndarray] = [u.reshape(-1, 3)[:mesh.n_nodes].copy()]
+        states: list[np.ndarray] = [u.copy()]
 
         def on_step(p: float, u_new: np.ndarray, ev) -> tuple[bool, float]:
             step = observer.step(p, u_new, ev, blocked)
             prev = steps[-1]
             steps.append(step)
             shapes.append(u_new.reshape(-1, 3)[:mesh.n_nodes].copy())
+            states.append(u_new.copy())
             log.info("%.3g kPa: angle %.1f deg, tip (%.2f, %.2f) mm%s", p, step.bend_angle_deg,
                      step.tip_x_mm, step.tip_z_mm,
                      f", force {step.force_n:.3g} N" if blocked else "")
@@ -127,7 +129,7 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
         except SolveError as err:
             # keep what converged: the caller may report the curve up to the failure
             err.partial = Solution(tuple(steps), shapes[-1], None, str(err),
-                                   newton.stats.as_dict(), tuple(shapes))
+                                   newton.stats.as_dict(), tuple(shapes), tuple(states))
             raise
     finally:
         newton.linear.release()
@@ -138,7 +140,7 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
     log.info("curve: %d unknowns, %d increments, %d factorisations, %.1f s", model.free.size,
              stats["increments"], stats["factorizations"], stats["total_s"])
     displacement = u.reshape(-1, 3)[:mesh.n_nodes].copy()
-    return Solution(tuple(steps), displacement, fb, reason, stats, tuple(shapes))
+    return Solution(tuple(steps), displacement, fb, reason, stats, tuple(shapes), tuple(states))
 
 
 def solve_bending(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,

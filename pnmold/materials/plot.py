@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from pnmold.errors import ExportError
-from pnmold.fsutil import atomic_path
 
 _UNITS = {"mpa": " MPa"}
 
@@ -22,16 +21,18 @@ def _label(result) -> str:
     return f"{result.model} fit: " + ", ".join(parts) + f"\n$R^2$ = {result.r2:.5f}"
 
 
-def plot_fit(data, result, path: str | Path) -> Path:
-    """Measured points, the fitted curve and the strain range where the fit holds, as a PNG.
+def plot_fit(data, result, path: str | Path | None = None, *, ax: Any = None) -> Figure:
+    """Measured points, the fitted curve and the strain range where the fit holds.
 
-    Uses the Agg canvas directly (no pyplot state, no backend switch); the file is written
-    to a temporary name beside ``path`` and renamed over it.
+    A :class:`~matplotlib.figure.Figure` (no pyplot state, no backend switch). ``ax``: the axes
+    to draw on (default a new figure); ``path``: also save the figure there, as a PNG written
+    to a temporary name beside it and renamed over it. Returns the figure.
     """
-    path = Path(path)
-    fig = Figure(figsize=(6.4, 4.8), dpi=120)
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
+    from pnmold.plots import figure_axes, save_figure
+
+    own = ax is None
+    fig, grid = figure_axes(ax, (1, 1), (6.4, 4.8))
+    ax = grid[0, 0]
     used = result.fitted(data)
     ax.plot(data.strain[used], data.stress_mpa[used], "o", ms=3.5, mfc="none", color="0.25", label="measured")
     if not used.all():
@@ -47,10 +48,12 @@ def plot_fit(data, result, path: str | Path) -> Path:
     ax.set_ylabel("engineering stress (MPa)")
     ax.set_title(Path(result.source).name, fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
+    if own:
+        fig.tight_layout()
+    if path is None:
+        return fig
     try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png")
+        save_figure(fig, path, dpi=120, tight=False)
     except OSError as err:
         raise ExportError(str(path), f"could not write the plot: {err}") from err
-    return path
+    return fig

@@ -29,12 +29,13 @@ the fPN), while the test against 1 g stays a prediction, not a fit.
    concealed FE data and the model that diagnoses them leave the same fingerprint; the
    analytic forms stand in only for a characterisation without variants.
 
-Results are cached as JSON in ``out/.cache/fe/`` (``PNMOLD_CACHE`` overrides the folder),
-keyed by the design digest, the mesh size and the pressure limit. A cached file without
-the variants gains them on first use (the two solves above are not repeated). The
-templates' characterisations on the default mesh ship with pnmold (:data:`BUNDLED_DIR`,
-written by ``scripts/bundle_characterisations.py``), so a template needs no FE here; a
-design that differs from a template in anything (another digest) is characterised once.
+Results are cached as JSON in the user's cache directory (:func:`cache_dir`; ``PNMOLD_CACHE``
+overrides the folder), keyed by the design digest, the mesh size and the pressure limit. A
+cached file without the variants gains them on first use (the two solves above are not
+repeated). The templates' characterisations on the default mesh ship with pnmold
+(:data:`BUNDLED_DIR`, written by ``scripts/bundle_characterisations.py``), so a template needs
+no FE here; a design that differs from a template in anything (another digest) is
+characterised once.
 """
 
 from __future__ import annotations
@@ -74,7 +75,16 @@ BUNDLED_DIR = Path(__file__).resolve().parents[1] / "data" / "characterisations"
 
 
 def cache_dir() -> Path:
-    return Path(os.environ.get("PNMOLD_CACHE") or Path("out") / ".cache" / "fe")
+    """Folder of the cached characterisations: ``PNMOLD_CACHE`` when set, else ``fe/`` in the
+    user's cache directory (platformdirs: ``~/.cache/pnmold/fe`` on Linux,
+    ``~/Library/Caches/pnmold/fe`` on macOS, ``%LOCALAPPDATA%\\pnmold\\Cache\\fe`` on Windows), so
+    every working folder shares it."""
+    env = os.environ.get("PNMOLD_CACHE")
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("pnmold", appauthor=False)) / "fe"
 
 
 def cache_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path:

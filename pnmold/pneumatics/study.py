@@ -135,8 +135,9 @@ def run_step_study(design, rig: Rig, *, duration_s: float = 0.5, gas_law: str = 
 
         written.append(write_recording(recording_path, "step", response.recording_columns(),
                                        recording_metadata(design, rig, effects)))
-    written.append(plot_step(response, _title(design, rig, response), _plot_path(design, plot_path, json_path,
-                                                                                 recording_path)))
+    figure = _plot_path(design, plot_path, json_path, recording_path)
+    plot_step(response, _title(design, rig, response), figure)
+    written.append(figure)
     return StepStudy(response, doc, written, _summary(response))
 
 

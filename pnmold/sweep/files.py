@@ -38,5 +38,7 @@ def finish_sweep(spec: SweepSpec, *, db: str | os.PathLike | None = None, schedu
         with SweepStore(result.db, spec.fields) as store:
             written.append(store.export_csv())
     if len(spec.axes) == 1 and spec.run.fem:
-        written.append(plot_sweep(spec, result.rows, result.db.with_suffix(".png")))
+        figure = result.db.with_suffix(".png")
+        plot_sweep(spec, result.rows, figure)
+        written.append(figure)
     return SweepRun(result, tuple(Path(p) for p in written))

@@ -4,27 +4,34 @@ supplement's Fig. S2 A-C), points without a full bend marked as such."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from pnmold.errors import UsageError
 from pnmold.sweep.spec import SweepSpec
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
-def plot_sweep(spec: SweepSpec, rows: list[dict[str, Any]], path: str | Path) -> Path:
-    """Full-bend pressure (kPa) against the sweep's one axis, written atomically to ``path``.
+
+def plot_sweep(spec: SweepSpec, rows: list[dict[str, Any]], path: str | Path | None = None, *,
+               ax: Any = None) -> Figure:
+    """Full-bend pressure (kPa) against the sweep's one axis.
 
     Points that built but did not bend fully (pressure limit reached, or the solver stopped)
     are drawn at the top edge as open triangles labelled with the highest pressure solved;
-    refused or failed points as crosses on the axis."""
-    from pnmold.plots import plt, save_figure
+    refused or failed points as crosses on the axis. ``ax``: the axes to draw on (default a
+    new figure); ``path``: also save the figure there (atomically). Returns the figure."""
+    from pnmold.plots import figure_axes, save_figure
 
     if len(spec.axes) != 1:
-        raise ValueError(f"plot_sweep needs a one-axis sweep, {spec.name} has {len(spec.axes)}")
+        raise UsageError(f"plot_sweep needs a one-axis sweep, {spec.name} has {len(spec.axes)}")
     field = spec.axes[0].field
     bent = sorted((r[field], r["full_bend_pressure_kpa"]) for r in rows if r["full_bend_pressure_kpa"] is not None)
     unbent = sorted((r[field], r["fem_max_pressure_kpa"]) for r in rows
                     if r["status"] == "ok" and r["full_bend_pressure_kpa"] is None)
     lost = sorted(r[field] for r in rows if r["status"] in ("refused", "failed", "check_failed"))
-    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    fig, grid = figure_axes(ax, (1, 1), (6.0, 4.2))
+    ax = grid[0, 0]
     if bent:
         ax.plot([x for x, _ in bent], [y for _, y in bent], "o-", color="C0", label="full bend (FE)")
     top = max([y for _, y in bent] + [y or 0.0 for _, y in unbent] + [spec.run.max_pressure_kpa or 0.0, 1.0])
@@ -45,4 +52,6 @@ def plot_sweep(spec: SweepSpec, rows: list[dict[str, Any]], path: str | Path) ->
     ax.set_title(f"{spec.name}: base {spec.base.stem}{mesh}", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")
-    return save_figure(fig, path)
+    if path is not None:
+        save_figure(fig, path)
+    return fig

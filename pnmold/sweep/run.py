@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import logging
 import os
-import resource
 import shutil
 import socket
 import sys
@@ -80,6 +79,20 @@ def _threads() -> dict[str, Any]:
     return found
 
 
+def max_rss_mb() -> float:
+    """Peak resident memory of this process, MB (MiB): ``getrusage`` where there is one (KiB on
+    Linux, bytes on macOS), else psutil's peak working set (Windows)."""
+    try:
+        import resource
+    except ImportError:  # Windows
+        import psutil
+
+        info = psutil.Process().memory_info()
+        return round(getattr(info, "peak_wset", info.rss) / 2**20, 1)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return round(peak / (2**20 if sys.platform == "darwin" else 1024), 1)
+
+
 def apply_values(base: Design, values: tuple[tuple[str, Any], ...]) -> Design:
     """``base`` with the point's fields set, checked by the design rules (DesignError)."""
     from pnmold.design import validate
@@ -118,8 +131,7 @@ def run_point(point: Point, base: Design, run: RunOptions, build_dir: str | None
                        error_field=getattr(err, "field", None) or getattr(err, "feature", None))
     finished = time.time()
     row.update(finished_at=finished, time_s=round(finished - started, 3), cpu_s=round(time.process_time() - cpu0, 3),
-               worker_threads=_threads(),
-               worker_max_rss_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1))
+               worker_threads=_threads(), worker_max_rss_mb=max_rss_mb())
     return {"row": row, "report": report}
 
 
@@ -258,7 +270,8 @@ def _connect(address: str):
     try:
         from distributed import Client
     except ImportError as err:
-        raise UsageError(f"--scheduler {address}: needs dask[distributed] installed") from err
+        raise UsageError(f"--scheduler {address}: a Dask cluster needs dask.distributed, which is not installed: "
+                         "pip install 'pnmold[cluster]' (local sweeps, without --scheduler, need no more)") from err
     try:
         return Client(address, timeout="20s")
     except (OSError, TimeoutError, ValueError) as err:

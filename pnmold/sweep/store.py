@@ -10,7 +10,6 @@ where, how many points it computed).
 from __future__ import annotations
 
 import csv
-import fcntl
 import io
 import json
 import os
@@ -18,6 +17,8 @@ import sqlite3
 import time
 from pathlib import Path
 from typing import Any
+
+from filelock import FileLock, Timeout
 
 from pnmold.errors import UsageError
 from pnmold.fsutil import write_text
@@ -78,30 +79,26 @@ class SweepStore:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _take_lock(self):
-        """The lock file, held; a finished sweep removes it, so a lock taken on a file another
-        coordinator has just removed is dropped and taken again on the new one."""
-        while True:
-            lock = open(self._lock_path, "w")  # noqa: SIM115
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError as err:
-                lock.close()
-                raise UsageError(f"{self.path}: another pnmold sweep is writing to this database") from err
-            try:
-                if os.stat(self._lock_path).st_ino == os.fstat(lock.fileno()).st_ino:
-                    return lock
-            except FileNotFoundError:
-                pass
-            lock.close()
+    def _take_lock(self) -> FileLock:
+        """The lock file, held (``filelock``: ``flock`` on Unix, ``LockFileEx`` on Windows), or
+        UsageError when another coordinator holds it. A finished sweep removes the file while it
+        holds it; a lock taken meanwhile on the removed file is dropped by filelock (link count
+        0) and taken again on the new file within the half second allowed."""
+        lock = FileLock(self._lock_path, timeout=0.5)
+        try:
+            lock.acquire()
+        except Timeout as err:
+            raise UsageError(f"{self.path}: another pnmold sweep is writing to this database") from err
+        return lock
 
     def close(self) -> None:
         if getattr(self, "con", None) is not None:
             self.con.close()
             self.con = None
-        if not self._lock.closed:
-            self._lock_path.unlink(missing_ok=True)  # still held: no one else owns this file
-            self._lock.close()
+        if self._lock.is_locked:
+            if os.name == "posix":  # still held: no one else owns this file (Windows removes it on release)
+                self._lock_path.unlink(missing_ok=True)
+            self._lock.release()
 
     def _create(self) -> None:
         with self.con:
