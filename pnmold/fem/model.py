@@ -26,7 +26,7 @@ from skfem.refdom import RefTri
 
 from ..errors import MeshingError
 from ..tetmesh import CAVITY, FREE_END, STRAIN_LIMITING_LAYER, TetMesh
-from . import kernels
+from . import kernels, surface
 from .material import Membrane, Yeoh
 
 log = logging.getLogger(__name__)
@@ -46,8 +46,30 @@ class Load:
 
 
 @dataclass
+class Stresses:
+    """The stresses the tangent is built with in the mixed-integration-point Newton:
+    the element pressures of the mean dilatation (MPa, one per tet) and the sheet's
+    stress (N/mm, (facet, quadrature point, S11/S22/S12); None without a sheet)."""
+
+    pbar: np.ndarray
+    sheet: np.ndarray | None
+
+    def combine(self, weights: list[float], others: list[Stresses]) -> Stresses:
+        """``sum_i weights[i] * others[i]`` (this one is a template only)."""
+        pbar = sum(w * o.pbar for w, o in zip(weights, others, strict=True))
+        sheet = (None if self.sheet is None else
+                 sum(w * o.sheet for w, o in zip(weights, others, strict=True)))
+        return Stresses(pbar, sheet)
+
+
+@dataclass
 class Evaluation:
-    """Residual (full length), energy and optionally the reduced tangent at one state."""
+    """Residual (full length), energy and optionally the reduced tangent at one state.
+
+    ``volume_gradient`` is dV_cavity/du (full length; None without a cavity);
+    ``inverted`` the indices of the tetrahedra with J <= 0 somewhere (then ``ok`` is False);
+    ``wrinkled`` the fraction of the sheet's quadrature points that are wrinkled or slack.
+    """
 
     residual: np.ndarray
     energy: float
@@ -56,6 +78,9 @@ class Evaluation:
     cavity_volume_mm3: float
     contact_force_n: float
     matrix: sp.csr_matrix | None = None
+    volume_gradient: np.ndarray | None = None
+    inverted: np.ndarray | None = None
+    wrinkled: float = 0.0
 
 
 class Model:
@@ -194,6 +219,7 @@ class Model:
         M = np.stack([np.einsum("kqdi,kqi->kqd", G, t) for t in (t1, t2)], axis=-1)
         dNs = np.einsum("adq,kqbd->kqab", dref, np.linalg.inv(M))
         self.mem_dofs = fd
+        self.mem_nc = self.membrane.wrinkling_force_n_per_mm(self.material)
         self.mem_dNs = np.ascontiguousarray(dNs)
         self.mem_w = np.ascontiguousarray(area * wts)
         self.kmap_mem = self._map_facets(fd)
@@ -217,58 +243,42 @@ class Model:
         """Consistent nodal forces of a uniform force density (full length)."""
         return (self.volume_load[:, None] * np.asarray(gravity_n_per_mm3, float)).ravel()
 
-    def evaluate(self, u: np.ndarray, load: Load, want_k: bool = False) -> Evaluation:
-        """Residual, energy (and the reduced upper-triangular tangent) at ``u``."""
-        mat = self.material
+    def stresses(self, u: np.ndarray, d: np.ndarray | None = None) -> Stresses:
+        """Element pressures and sheet stresses at ``u``, plus their first-order change
+        along the displacement ``d`` (full length) when given."""
+        u = np.ascontiguousarray(u, dtype=float)
+        d = np.zeros_like(u) if d is None else np.ascontiguousarray(d, dtype=float)
+        pbar = np.zeros(self.edofs.shape[0])
+        kernels.element_pressure(u, d, self.edofs, self.dN, self.wq,
+                                 self.material.bulk_modulus_mpa, pbar)
+        sheet = None
+        if self.mem_dofs is not None:
+            mb = self.membrane
+            sheet = np.zeros((*self.mem_w.shape, 3))
+            surface.membrane_stress(u, d, self.X, self.mem_dofs, self.mem_dNs,
+                                    mb.plane_stress_stiffness_n_per_mm, mb.poisson,
+                                    self.mem_nc, mb.wrinkles, sheet)
+        return Stresses(pbar, sheet)
+
+    def evaluate(self, u: np.ndarray, load: Load, want_k: bool = False,
+                 mixed: Stresses | None = None) -> Evaluation:
+        """Residual, energy (and the reduced upper-triangular tangent) at ``u``; with
+        ``mixed``, the tangent's stress terms use those stresses (see :mod:`.newton`)."""
         u = np.ascontiguousarray(u, dtype=float)
         R = np.zeros(self.ndof)
         Rext = np.zeros(self.ndof)
         data = np.zeros(self.indices.size) if want_k else None
-        energy, ok = 0.0, True
-        kappa = mat.bulk_modulus_mpa
-        mean_dil = mat.volumetric == "mean_dilatation"
-        nel = self.edofs.shape[0]
-        ntri = 465 if want_k else 1
-        for s in range(0, nel, _CHUNK):
-            sl = slice(s, min(s + _CHUNK, nel))
-            m = sl.stop - sl.start
-            W, Re, bad = np.empty(m), np.empty((m, 30)), np.zeros(m, np.int8)
-            Ke = np.empty((m, ntri))
-            kernels.solid(u, self.edofs[sl], self.dN[sl], self.wq[sl], mat.c10_mpa,
-                          mat.c20_mpa, mat.c30_mpa, kappa, mean_dil, want_k, W, Re, Ke, bad)
-            if bad.any():
-                ok = False
-                break
-            energy += W.sum()
-            kernels.scatter_vector(Re, self.edofs[sl], R)
-            if want_k:
-                kernels.scatter_matrix(Ke, self.kmap_solid[sl], data)
-        if not ok:
-            return Evaluation(R, np.inf, False, 0.0, np.nan, 0.0)
+        energy, inverted = self._solid(u, want_k, R, data, mixed)
+        if inverted.size:
+            return Evaluation(R, np.inf, False, 0.0, np.nan, 0.0, inverted=inverted)
+        wrinkled = 0.0
         if self.mem_dofs is not None:
-            mb = self.membrane
-            dmod = mb.stiffness_n_per_mm / (1.0 - mb.poisson ** 2)
-            nf = self.mem_dofs.shape[0]
-            W, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
-            kernels.membrane(u, self.X, self.mem_dofs, self.mem_dNs, self.mem_w, dmod,
-                             mb.poisson, want_k, W, Re, Ke)
-            energy += W.sum()
-            kernels.scatter_vector(Re, self.mem_dofs, R)
-            if want_k:
-                kernels.scatter_matrix(Ke, self.kmap_mem, data)
-        volume = np.nan
+            w, wrinkled = self._membrane(u, want_k, R, data, mixed)
+            energy += w
+        volume, dvdu = np.nan, None
         if self.cav_dofs is not None:
-            nf = self.cav_dofs.shape[0]
-            V, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
-            p = load.pressure_mpa
-            kernels.pressure(u, self.X, self.cav_dofs, self.cav_N, self.cav_dN, self.cav_w,
-                             p, want_k and p != 0.0, V, Re, Ke)
-            volume = float(V.sum())
-            energy -= p * volume
-            if p != 0.0:
-                kernels.scatter_vector(Re, self.cav_dofs, Rext)
-                if want_k:
-                    kernels.scatter_matrix(Ke, self.kmap_cav, data)
+            volume, dvdu = self._pressure(u, load.pressure_mpa, want_k, Rext, data)
+            energy -= load.pressure_mpa * volume
         if any(load.gravity_n_per_mm3):
             fg = self.gravity_vector(load.gravity_n_per_mm3)
             Rext -= fg
@@ -292,4 +302,68 @@ class Model:
         if want_k:
             n = self.free.size
             mtx = sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
-        return Evaluation(R, energy, True, ext, volume, force, mtx)
+        return Evaluation(R, energy, True, ext, volume, force, mtx, dvdu, np.zeros(0, np.int64),
+                          wrinkled)
+
+    def _solid(self, u: np.ndarray, want_k: bool, R: np.ndarray, data: np.ndarray | None,
+               mixed: Stresses | None) -> tuple[float, np.ndarray]:
+        """Elastomer energy; adds its residual (and tangent); indices of inverted tets."""
+        mat = self.material
+        mean_dil = mat.volumetric == "mean_dilatation"
+        nel = self.edofs.shape[0]
+        ntri = 465 if want_k else 1
+        energy, bad_all = 0.0, []
+        use = mixed is not None and want_k
+        pbar = mixed.pbar if use else np.zeros(nel)
+        for s in range(0, nel, _CHUNK):
+            sl = slice(s, min(s + _CHUNK, nel))
+            m = sl.stop - sl.start
+            W, Re, bad = np.empty(m), np.empty((m, 30)), np.zeros(m, np.int8)
+            Ke = np.empty((m, ntri))
+            kernels.solid(u, self.edofs[sl], self.dN[sl], self.wq[sl], mat.c10_mpa,
+                          mat.c20_mpa, mat.c30_mpa, mat.bulk_modulus_mpa, mean_dil, want_k,
+                          use, pbar[sl], W, Re, Ke, bad)
+            if bad.any():
+                bad_all.append(s + np.flatnonzero(bad))
+                continue
+            if bad_all:
+                continue
+            energy += W.sum()
+            kernels.scatter_vector(Re, self.edofs[sl], R)
+            if want_k:
+                kernels.scatter_matrix(Ke, self.kmap_solid[sl], data)
+        inverted = np.concatenate(bad_all) if bad_all else np.zeros(0, np.int64)
+        return energy, inverted
+
+    def _membrane(self, u: np.ndarray, want_k: bool, R: np.ndarray, data: np.ndarray | None,
+                  mixed: Stresses | None) -> tuple[float, float]:
+        """Sheet energy and the wrinkled fraction; adds its residual (and tangent)."""
+        mb = self.membrane
+        nf = self.mem_dofs.shape[0]
+        W, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
+        regime = np.zeros(nf, np.int64)
+        use = mixed is not None and want_k and mixed.sheet is not None
+        sheet = mixed.sheet if use else np.zeros((1, 1, 3))
+        surface.membrane(u, self.X, self.mem_dofs, self.mem_dNs, self.mem_w,
+                         mb.plane_stress_stiffness_n_per_mm, mb.poisson, self.mem_nc,
+                         mb.wrinkles, want_k, use, sheet, W, Re, Ke, regime)
+        kernels.scatter_vector(Re, self.mem_dofs, R)
+        if want_k:
+            kernels.scatter_matrix(Ke, self.kmap_mem, data)
+        return float(W.sum()), float(regime.sum()) / self.mem_w.size
+
+    def _pressure(self, u: np.ndarray, p: float, want_k: bool, Rext: np.ndarray,
+                  data: np.ndarray | None) -> tuple[float, np.ndarray]:
+        """Cavity volume and dV/du; adds the pressure's load (and its tangent) at ``p``."""
+        nf = self.cav_dofs.shape[0]
+        V, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
+        surface.pressure(u, self.X, self.cav_dofs, self.cav_N, self.cav_dN, self.cav_w, 1.0,
+                         want_k and p != 0.0, V, Re, Ke)
+        unit = np.zeros(self.ndof)  # the load of 1 MPa: -dV/du
+        kernels.scatter_vector(Re, self.cav_dofs, unit)
+        if p != 0.0:
+            Rext += p * unit
+            if want_k:
+                Ke *= p
+                kernels.scatter_matrix(Ke, self.kmap_cav, data)
+        return float(V.sum()), -unit

@@ -45,6 +45,26 @@ class Step:
         return d
 
 
+@dataclass(frozen=True)
+class PressureMaximum:
+    """The highest pressure along a volume-controlled curve (a limit point): past it the
+    actuator inflates further at a falling pressure, so under a pressure regulator it
+    would snap; a syringe follows it."""
+
+    pressure_kpa: float
+    bend_angle_deg: float
+    cavity_volume_ml: float
+
+    def describe(self) -> str:
+        return (f"pressure maximum of {self.pressure_kpa:.4g} kPa at {self.bend_angle_deg:.1f} deg "
+                f"bend and {self.cavity_volume_ml:.4g} mL")
+
+
+#: why a curve ended: the physical stops, and a solver failure
+STOPS = ("full_bend", "pressure_limit", "pressure_maximum", "stretch_limit", "targets",
+         "failed")
+
+
 @dataclass(frozen=True, eq=False)
 class Solution:
     """A pressure curve.
@@ -57,6 +77,8 @@ class Solution:
         (linearly interpolated between steps), or None; then ``reason`` says why.
     stats : unknowns, increments, factorisations, timings (s).
     shapes_mm : (n_nodes, 3) displacement at every step, for pictures of the bend.
+    stop : why the curve ended, one of :data:`STOPS` ("failed" for a partial curve).
+    pressure_maximum : the pressure maximum met along the curve, or None.
     """
 
     steps: tuple[Step, ...]
@@ -65,6 +87,8 @@ class Solution:
     reason: str | None = None
     stats: dict = field(default_factory=dict)
     shapes_mm: tuple[np.ndarray, ...] = ()  # displacement of the mesh nodes at every step
+    stop: str = "full_bend"
+    pressure_maximum: PressureMaximum | None = None
 
     @property
     def max_pressure_kpa(self) -> float:
