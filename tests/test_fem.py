@@ -325,7 +325,7 @@ def test_half_and_full_models_agree(beam):
 
 # -- f. failure ---------------------------------------------------------------------------
 def test_solve_error_names_last_converged_pressure(beam):
-    options = SolveOptions(first_step_kpa=20.0, max_step_kpa=1e5,
+    options = SolveOptions(first_angle_step_deg=30.0,
                            newton=NewtonOptions(max_cuts=0, growth=4.0))
     with pytest.raises(SolveError) as info:
         solve_bending(beam, max_pressure_kpa=1e5, options=options)

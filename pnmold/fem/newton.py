@@ -41,10 +41,13 @@ stiff moduli. Three consequences and their treatment here:
    Optimization, section 15.6), accepted only if it is a correction (no longer than the
    step). A step is also accepted when it halves the residual (Newton's own measure).
 
-An increment fails fast (the caller then shortens it): when the tangent at the predicted
-state has more negative pivots than the last converged state's (the predictor went too
-far; ``strict``), when the line search shortens the step twice in a row, when there is
-no progress after ``diverge_after`` iterations, or after ``max_iterations``.
+When the search has shortened the step twice in a row (crawling), the rest of the
+increment takes full steps guarded only against inverted elements: where the spurious
+stretch dominates the energy, the next Newton iteration removes it, as the plain guarded
+Newton this module replaced did. An increment fails fast (the caller then shortens
+it): when the tangent at the predicted state has more negative pivots than the last
+converged state's (the predictor went too far; ``strict``), when there is no progress
+after ``diverge_after`` iterations, or after ``max_iterations``.
 """
 
 from __future__ import annotations
@@ -220,7 +223,7 @@ class Newton:
     # -- the solve ----------------------------------------------------------------------
     def solve(self, u0: np.ndarray, load: Load, tangent_load: Load | None = None,
               volume: float | None = None, stresses: Stresses | None = None,
-              work: float = 0.0, strict: bool = True) -> NewtonResult:
+              work: float = 0.0, strict: bool = False) -> NewtonResult:
         """Newton from ``u0`` at ``load``.
 
         With ``volume`` (mm^3, the whole model's cavity as meshed) the cavity volume is
@@ -239,7 +242,7 @@ class Newton:
         p, u = load.pressure_mpa, u0.copy()
         ev = self.evaluate(u, load)
         history: list[float] = []
-        n_fact, short = 0, 0
+        n_fact, short, guarded = 0, 0, False
         self._rho = 0.0
         self.inverted = ev.inverted if not ev.ok else np.zeros(0, np.int64)
 
@@ -273,7 +276,7 @@ class Newton:
                 return result(False, f"the tangent at the predicted state has "
                               f"{self.linear.negative_pivots} negative pivots (at the last state "
                               f"{self.inertia}): the step is too long")
-            step = self._step(u, p, ev, volume, load)
+            step = self._step(u, p, ev, volume, load, guarded)
             log.debug("  it %d: |r| %.3e -> %s", it, rn, "rejected" if step is None else
                       f"{np.linalg.norm(step.ev.residual[m.free]):.3e} ({step.how})")
             if step is None:
@@ -282,22 +285,29 @@ class Newton:
                 mixed = self._update_stresses(u, step, mixed)
             u, p, ev = step.u, step.p, step.ev
             short = short + 1 if step.alpha < 0.3 else 0
-            if short >= 2:
-                history.append(float(np.linalg.norm(ev.residual[m.free])))
-                return result(False, "the line search keeps shortening the step")
-            if work > 0 and self._small_decrement(ev, volume, work, volume_tol):
+            if short >= 2 and not guarded:
+                # crawling: the energy reads a spurious stretch as an overlong step
+                # (module notes, 3.); from here on full steps, guarded against inversion
+                log.debug("  the line search keeps shortening the step: full steps from here")
+                guarded = True
+            polished = self._small_decrement(u, p, ev, volume, load, work, volume_tol) if work > 0 else None
+            if polished is not None:
+                u, p, ev = polished
                 history.append(float(np.linalg.norm(ev.residual[m.free])))
                 return result(True)
         return result(False, f"not converged in {opt.max_iterations} iterations")
 
-    def _small_decrement(self, ev: Evaluation, volume: float | None, work: float,
-                         volume_tol: float) -> bool:
-        """Converged in the energy norm: the next correction, estimated with the current
-        factorisation (one back-substitution), would gain less than ``energy_rtol`` of the
-        work the load has done so far (module notes, 2.)."""
+    def _small_decrement(self, u: np.ndarray, p: float, ev: Evaluation, volume: float | None,
+                         load: Load, work: float, volume_tol: float
+                         ) -> tuple[np.ndarray, float, Evaluation] | None:
+        """Converged in the energy norm (module notes, 2.): the next correction, estimated
+        with the current factorisation (one back-substitution), would gain less than
+        ``energy_rtol`` of the work the load has done so far. Then up to three such
+        corrections are taken (one residual evaluation each, while the residual falls,
+        until it meets ``rtol``) and the state returned; else None."""
         m, opt = self.model, self.options
         if volume is not None and abs(ev.cavity_volume_mm3 - volume) > volume_tol:
-            return False
+            return None
         d, dp, _ = self._direction(ev, volume)
         r = ev.residual[m.free]
         if volume is not None:
@@ -305,7 +315,19 @@ class Newton:
         decrement = abs(float(d @ r))
         log.debug("    decrement %.2e of the work %.2e, next correction %.3g mm",
                   decrement, work, float(np.max(np.abs(d))))
-        return decrement <= opt.energy_rtol * work
+        if decrement > opt.energy_rtol * work:
+            return None
+        for _ in range(3):  # polish with the same factorisation (modified Newton)
+            u2 = self._moved(u, d)
+            ev2 = self.evaluate(u2, replace(load, pressure_mpa=p + dp))
+            if not ev2.ok or (np.linalg.norm(ev2.residual[m.free])
+                              >= np.linalg.norm(ev.residual[m.free])):
+                break
+            u, p, ev = u2, p + dp, ev2
+            if np.linalg.norm(ev.residual[m.free]) <= self.tolerance(ev):
+                break
+            d, dp, _ = self._direction(ev, volume)
+        return u, p, ev
 
     def _direction(self, ev: Evaluation, volume: float | None
                    ) -> tuple[np.ndarray, float, np.ndarray | None]:
@@ -320,8 +342,9 @@ class Newton:
         return b + dp * a, dp, a
 
     def _step(self, u: np.ndarray, p: float, ev: Evaluation, volume: float | None,
-              load: Load) -> _Point | None:
-        """Direction, then merit line search with a second-order correction."""
+              load: Load, guarded: bool = False) -> _Point | None:
+        """Direction, then merit line search with a second-order correction; ``guarded``:
+        the full step unless it inverts elements (then halved)."""
         m, opt = self.model, self.options
         d, dp, a = self._direction(ev, volume)
         p_new = p + dp
@@ -367,8 +390,13 @@ class Newton:
 
         alpha = min(1.0, opt.max_correction * self.span / big) if big > 0 else 1.0
         trial = at(self._moved(u, alpha * d), p_new, alpha, "full step")
-        if slope >= 0:  # not a descent direction (indefinite tangent): a guarded full step
-            return trial if trial.ev.ok else None
+        if slope >= 0 or guarded:  # not a descent direction, or crawling: guarded steps
+            for _ in range(opt.max_line_search):
+                if trial.ev.ok:
+                    return trial
+                alpha *= 0.5
+                trial = at(self._moved(u, alpha * d), p_new, alpha, f"guarded x{alpha:.3g}")
+            return None
         if accept(trial):
             return trial
         if trial.ev.ok:  # second-order correction with the same factorisation

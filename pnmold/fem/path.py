@@ -265,6 +265,8 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     rate_u[m.free] = a / compliance
     rate_p = 1.0 / compliance
     dv = _first_step(newton, rate_u, angle, first, control)
+    if math.isfinite(control.max_pressure_step_mpa):
+        dv = min(dv, control.max_pressure_step_mpa * compliance)
     pending = sorted({*(p for p in (targets or ()) if p > first.p), p_limit})
     pending = [p for p in pending if p <= p_limit]
     history, state, cuts = [first], first, 0
@@ -298,18 +300,33 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
         ptol = 1e-5 * abs(state.p) + 1e-12
         if not peaked and new.p < state.p - ptol:
             peaked = True
-            top = _solve_peak(newton, history + [new], load_at) or state
+            top = _solve_peak(newton, history + [new], load_at, done)
+            fresh = top is not None and top.p > state.p and top.t > state.t
+            top = top if fresh else state  # the last state on the rise, already reported
             log.info("pressure maximum %.4g kPa at volume +%.4g mL", 1000.0 * top.p,
                      (top.t - history[0].t) / 1000.0)
             if on_maximum is not None:
                 on_maximum(top)
             if not past_maximum:
-                if targets is None:
+                if targets is None and fresh:
                     on_step(top)
                 return top, "pressure_maximum"
-        while pending and state.p < pending[0] <= new.p:
+        landings = []
+        for target in [q for q in pending if state.p < q <= new.p]:
+            landed = _land(newton, history + [new], target, load_at, done)
+            if landed is None:
+                break
+            landings.append(landed)
+        if len(landings) < sum(state.p < q <= new.p for q in pending):
+            cuts += 1  # a requested pressure could not be landed on: a shorter increment
+            newton.stats.cuts += 1
+            if cuts > opt.max_cuts:
+                raise PathFailure("pressure", state, v_new, res,
+                                  f"landing on a requested pressure failed after {cuts - 1} cuts")
+            dv *= 0.5
+            continue
+        for landed in landings:
             target = pending.pop(0)
-            landed = _land(newton, history + [new], target, load_at)
             stop, _ = on_step(landed)
             if target >= p_limit:
                 return landed, "pressure_limit"
@@ -330,27 +347,28 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
         state, last_angle, cuts = new, bend, 0
 
 
-def _solve_peak(newton: Newton, history: Sequence[State], load_at: Callable[[float], Load]
-                ) -> State | None:
+def _solve_peak(newton: Newton, history: Sequence[State], load_at: Callable[[float], Load],
+                work: float) -> State | None:
     """The converged state at the located pressure maximum (volume control), or None."""
     v = _peak(history)
     u_pred, p_pred, s_pred = extrapolate(history, v, min(newton.options.predictor_order,
                                                          len(history) - 1))
-    res = newton.solve(u_pred, load_at(p_pred), volume=v, stresses=s_pred)
+    res = newton.solve(u_pred, load_at(p_pred), volume=v, stresses=s_pred, work=work,
+                       strict=False)
     return (State(v, res.u, res.pressure_mpa, res.evaluation, res.stresses) if res.converged
             else None)
 
 
 def _land(newton: Newton, history: Sequence[State], p_target: float,
-          load_at: Callable[[float], Load]) -> State:
+          load_at: Callable[[float], Load], work: float) -> State | None:
     """The converged state at exactly ``p_target`` between the last two states (pressure
-    control from an interpolated predictor)."""
+    control from an interpolated predictor), or None."""
     order = min(newton.options.predictor_order, len(history) - 1)
     v = _interpolate_volume(history, p_target, order)
     u_pred, _, s_pred = extrapolate(history, v, order)
-    res = newton.solve(u_pred, load_at(p_target), stresses=s_pred)
+    res = newton.solve(u_pred, load_at(p_target), stresses=s_pred, work=work, strict=False)
     if not res.converged:
-        raise PathFailure("pressure", history[-2], v, res,
-                          f"landing on {1000 * p_target:.4g} kPa failed: {res.why}")
+        log.info("landing on %.4g kPa failed (%s)", 1000 * p_target, res.why)
+        return None
     return State(res.evaluation.cavity_volume_mm3, res.u, p_target, res.evaluation,
                  res.stresses)
