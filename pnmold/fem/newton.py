@@ -102,7 +102,7 @@ class NewtonOptions:
     max_correction: float = 0.25
     armijo: float = 1e-4
     max_line_search: int = 6
-    predictor_order: int = 3
+    predictor_order: int = 4
     mixed: bool = True
 
 
