@@ -295,7 +295,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
         done += abs(0.5 * (new.p + state.p) * (new.t - state.t))
         bend = angle(new.u)
         log.info("pressure %.4g kPa (volume +%.4g mL): bend %.1f deg, %d factorisations%s",
-                 1000.0 * new.p, (new.t - history[0].t) / 1000.0, bend, res.factorizations,
+                 1000.0 * new.p, (new.t - first.t) / 1000.0, bend, res.factorizations,
                  f", sheet {100 * new.ev.wrinkled:.0f}% wrinkled" if new.ev.wrinkled else "")
         ptol = 1e-5 * abs(state.p) + 1e-12
         if not peaked and new.p < state.p - ptol:
@@ -304,7 +304,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
             fresh = top is not None and top.p > state.p and top.t > state.t
             top = top if fresh else state  # the last state on the rise, already reported
             log.info("pressure maximum %.4g kPa at volume +%.4g mL", 1000.0 * top.p,
-                     (top.t - history[0].t) / 1000.0)
+                     (top.t - first.t) / 1000.0)
             if on_maximum is not None:
                 on_maximum(top)
             if not past_maximum:
