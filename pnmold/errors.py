@@ -85,15 +85,22 @@ class MeshingError(PnmoldError):
 
 
 class SolveError(PnmoldError):
-    """A solve failed; names the load step and keeps the residual history.
+    """The nonlinear solve failed; names the load step and keeps the residual history.
 
-    ``partial``: what converged before the failure (e.g. the FE's
-    :class:`~pnmold.fem.Solution` up to the last converged step), or None."""
+    ``stage`` (e.g. "gravity", "pressure", "blocked force"), ``region`` (where in the body
+    it went wrong) and ``hint`` (what to try) are given by solvers that know them;
+    ``partial`` is what converged before the failure (for the FE, a
+    :class:`pnmold.fem.Solution`), or None.
+    """
 
     def __init__(self, message: str, last_converged: float | None = None,
-                 residuals: list[float] | None = None, partial: Any = None):
+                 residuals: list[float] | None = None, *, stage: str | None = None,
+                 region: str | None = None, hint: str | None = None, partial: Any = None):
         self.last_converged = last_converged
         self.residuals = list(residuals or [])
+        self.stage = stage
+        self.region = region
+        self.hint = hint
         self.partial = partial
         super().__init__(message)
 

@@ -40,8 +40,18 @@ FE_KINDS = ("bending", "force")
 
 
 def material_of(design: Design) -> Yeoh:
+    """The FE's elastomer; a library material's elongation at break ends the curve where
+    the largest stretch passes it (``Solution.stop == "stretch_limit"``)."""
+    from pnmold.errors import UsageError
+    from pnmold.materials.library import get_material
+
     m = design.material
-    return Yeoh(c10_mpa=m.c10_mpa, c20_mpa=m.c20_mpa, c30_mpa=m.c30_mpa, density_g_per_ml=m.density_g_per_ml)
+    try:
+        stretch = 1.0 + get_material(m.name).elongation_at_break
+    except UsageError:  # not a library material: no stretch stop
+        stretch = None
+    return Yeoh(c10_mpa=m.c10_mpa, c20_mpa=m.c20_mpa, c30_mpa=m.c30_mpa,
+                density_g_per_ml=m.density_g_per_ml, stretch_at_break=stretch)
 
 
 def membrane_of(design: Design) -> Membrane:

@@ -6,6 +6,7 @@ values here, so these tests need neither gmsh nor CAD.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -17,7 +18,7 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 from skfem import MeshTet
 
-from pnmold.errors import SolveError, UsageError
+from pnmold.errors import MeshingError, SolveError, UsageError
 from pnmold.fem import (
     Load,
     Membrane,
@@ -32,7 +33,7 @@ from pnmold.fem import (
     solve_bending,
     solve_blocked_force,
 )
-from pnmold.fem.newton import continuation
+from pnmold.fem.path import continuation
 from pnmold.tetmesh import TetMesh
 
 TOL = 1e-9
@@ -166,9 +167,11 @@ def test_uniaxial_stretch_matches_closed_form(volumetric, bulk_ratio):
 
 
 def test_membrane_has_exact_stretching_stiffness():
-    """A paper sheet on a nearly stress-free block: force = E t w lam (lam^2 - 1) / 2."""
+    """A paper sheet on a nearly stress-free block: force = E t w lam (lam^2 - 1) / 2.
+    (Pulled along x, free across: the sheet is taut, the plain and relaxed sheets agree;
+    the plain one, as the stress-free block gives the wrinkled sheet no lateral stiffness.)"""
     soft = Yeoh(c10_mpa=1e-5, c20_mpa=0.0)
-    paper = Membrane()
+    paper = Membrane(wrinkles=False)
     mesh = unit_block(n=2, size=(4.0, 2.0, 1.0))
     model = Model(mesh, soft, paper, {"x0": (0,), "x1": (0,), "y0": (1,),
                                       "strain_limiting_layer": (2,)})
@@ -272,6 +275,59 @@ def test_cantilever_sag_matches_beam_theory():
     assert sag == pytest.approx(expected, rel=0.03)
 
 
+
+def test_two_rubber_cantilever_sags_as_a_composite_beam():
+    """A bottom third cast in a 4x stiffer, 1.5x denser rubber (``regions``): the sag is the
+    transformed-section beam's, with the weight of both rubbers."""
+    length, width, height = 60.0, 3.0, 3.0
+    skm = MeshTet.init_tensor(np.linspace(0, length, 31), np.linspace(0, width / 2, 3),
+                              np.linspace(0, height, 7))
+    mesh = tetmesh(skm, {"clamp": lambda c: c[:, 0] < TOL,
+                         "symmetry": lambda c: c[:, 1] < TOL,
+                         "free_end": lambda c: c[:, 0] > length - TOL}, half=True)
+    layer_mm = 1.0
+    low = np.flatnonzero(mesh.nodes_mm[mesh.tets][:, :, 2].mean(axis=1) < layer_mm)
+    mesh = dataclasses.replace(mesh, regions={"bottom_layer": low})
+    body = Yeoh()
+    stiff = Yeoh(c10_mpa=4 * body.c10_mpa, c20_mpa=4 * body.c20_mpa, c30_mpa=4 * body.c30_mpa,
+                 density_g_per_ml=1.5 * body.density_g_per_ml)
+    scale = 0.01  # of g: small deflection
+    model = Model(mesh, body, None, {"clamp": (0, 1, 2), "symmetry": (1,)},
+                  regions={"bottom_layer": stiff})
+    g = scale * body.weight_density_n_per_mm3
+    res = Newton(model).solve(np.zeros(model.ndof), Load(gravity_n_per_mm3=(0, 0, -g)))
+    assert res.converged
+    end = np.unique(model.facet_dofs["free_end"])
+    sag = -res.u.reshape(-1, 3)[end, 2].mean()
+    a1, a2 = width * layer_mm, width * (height - layer_mm)  # stiff layer, body
+    q = g * (1.5 * a1 + a2)
+    n = 4.0  # modular ratio; transformed section in body units
+    zc = (n * a1 * layer_mm / 2 + a2 * (layer_mm + height) / 2) / (n * a1 + a2)
+    inertia = (n * (width * layer_mm ** 3 / 12 + a1 * (zc - layer_mm / 2) ** 2)
+               + width * (height - layer_mm) ** 3 / 12 + a2 * (zc - (layer_mm + height) / 2) ** 2)
+    expected = q * length ** 4 / (8 * body.youngs_modulus_mpa * inertia)
+    assert sag == pytest.approx(expected, rel=0.03)
+    uniform = Model(mesh, body, None, {"clamp": (0, 1, 2), "symmetry": (1,)})
+    plain = Newton(uniform).solve(np.zeros(uniform.ndof), Load(gravity_n_per_mm3=(0, 0, -g)))
+    assert -plain.u.reshape(-1, 3)[end, 2].mean() > 1.5 * sag  # the stiff layer matters
+
+
+def test_clamp_reaction_carries_the_weight_of_two_rubbers(beam):
+    low = np.flatnonzero(beam.nodes_mm[beam.tets][:, :, 2].mean(axis=1) < 1.0)
+    two = dataclasses.replace(beam, regions={"bottom_layer": low})
+    body = Yeoh()
+    heavy = Yeoh(c10_mpa=2 * body.c10_mpa, density_g_per_ml=2.0)
+    sol = solve_bending(two, body, pressures_kpa=[2.0], gravity=(0, 0, -1),
+                        regions={"bottom_layer": heavy})
+    p = two.nodes_mm[two.tets]
+    vols = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]) / 6
+    weight = 2 * (body.weight_density_n_per_mm3 * (vols.sum() - vols[low].sum())
+                  + heavy.weight_density_n_per_mm3 * vols[low].sum())  # a half model
+    assert sol.steps[-1].clamp_reaction_n[2] == pytest.approx(weight, rel=1e-6)
+    with pytest.raises(MeshingError, match="bottom_layer"):
+        Model(beam, body, None, {"clamp": (0, 1, 2)}, regions={"bottom_layer": heavy})
+
+
 # -- d. tangent check -----------------------------------------------------------------------
 def closed_box() -> TetMesh:
     skm = MeshTet.init_tensor(np.linspace(0, 6, 7), np.linspace(0, 3, 4), np.linspace(0, 3, 4))
@@ -323,7 +379,7 @@ def test_half_and_full_models_agree(beam):
 
 # -- f. failure ---------------------------------------------------------------------------
 def test_solve_error_names_last_converged_pressure(beam):
-    options = SolveOptions(first_step_kpa=20.0, max_step_kpa=1e5,
+    options = SolveOptions(first_angle_step_deg=30.0,
                            newton=NewtonOptions(max_cuts=0, growth=4.0))
     with pytest.raises(SolveError) as info:
         solve_bending(beam, max_pressure_kpa=1e5, options=options)

@@ -7,14 +7,20 @@ Formulation (details in the module docstrings):
 
 - :mod:`.material` -- Yeoh with isochoric I1bar on P2 tetrahedra; near-incompressibility by
   a mean-dilatation (P2/P0, condensed) penalty K/mu = 200; the paper as a St.Venant-
-  Kirchhoff membrane (E*t exact, no bending stiffness).
+  Kirchhoff membrane (E*t exact, no bending stiffness) that wrinkles in compression.
 - :mod:`.model` -- scikit-fem mesh/element/quadrature/numbering, precomputed sparsity and
   scatter maps; follower cavity pressure in reference form (Nanson), gravity, clamp,
   y = 0 symmetry, a penalty contact plane for blocked force.
 - :mod:`.kernels` -- compiled element kernels (energy, residual, tangent).
-- :mod:`.newton` / :mod:`.linsolve` -- Newton with a guarded line search, adaptive load
-  steps with extrapolated predictors; PARDISO LDL^T with the analysis done once (SciPy's
-  SuperLU where pypardiso is missing, or with ``PNMOLD_LINEAR_SOLVER=scipy``).
+- :mod:`.surface` -- compiled kernels of the paper sheet (compression relaxed: it
+  wrinkles) and of the cavity pressure.
+- :mod:`.newton` / :mod:`.linsolve` -- Newton with an energy line search and a second-
+  order correction, under load or cavity-volume control; PARDISO LDL^T with the
+  analysis done once (SciPy's SuperLU where pypardiso is missing, or with
+  ``PNMOLD_LINEAR_SOLVER=scipy``).
+- :mod:`.path` -- gravity ramped by load control, the pressure by volume control (passes
+  pressure maxima), extrapolated predictors, step control on bend and iterations.
+- :mod:`.failure` -- where a failed solve went wrong and what to try.
 - :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
   :func:`blocked_force_slope` (the blocked force to first order in pressure),
   :class:`Step` and :class:`Solution`.
@@ -27,7 +33,7 @@ Formulation (details in the module docstrings):
 from .material import Membrane, Yeoh
 from .model import Load, Model
 from .newton import Newton, NewtonOptions
-from .results import Solution, Step, full_bend_pressure
+from .results import STOPS, PressureMaximum, Solution, Step, full_bend_pressure
 from .solver import (
                      ELASTOSIL_M4601,
                      PAPER,
@@ -42,6 +48,8 @@ __all__ = [
     "ELASTOSIL_M4601",
     "BlockedSlope",
     "PAPER",
+    "PressureMaximum",
+    "STOPS",
     "Load",
     "Membrane",
     "Model",

@@ -1,10 +1,11 @@
-"""Compiled (numba) element kernels: energy, residual and packed tangent per element.
+"""Compiled (numba) element kernels of the solid, and the gather/scatter helpers.
 
 Each kernel fills, per element ``e``: ``W[e]`` (energy), ``R[e, :]`` (gradient of the
 energy w.r.t. the element's unknowns, ordered node-major ``3*a + i``) and, when asked,
 ``K[e, :]`` (the upper triangle ``r <= s`` of the symmetric element tangent, row by row).
 ``bad[e] = 1`` flags an inverted element (J <= 0); its energy is then ``inf``.
-All quantities in mm, N, MPa.
+All quantities in mm, N, MPa. The surface kernels (membrane, pressure) are in
+:mod:`.surface`.
 """
 
 from __future__ import annotations
@@ -30,12 +31,18 @@ def _cofactor(F, C):
 
 
 @nb.njit(parallel=True, cache=_CACHE)
-def solid(u, edofs, dN, wq, c10, c20, c30, kappa, mean_dil, want_k, W, R, K, bad):
-    """Yeoh elastomer with isochoric I1b and a pointwise or mean-dilatation penalty."""
+def solid(u, edofs, dN, wq, c10s, c20s, c30s, kappas, mean_dil, want_k, mixed, pbar_in, W, R, K, bad):
+    """Yeoh elastomer with isochoric I1b and a pointwise or mean-dilatation penalty; the
+    constants per element (``c10s[e]``, ..., ``kappas[e]``: a body of several rubbers).
+
+    With ``mixed`` (mean dilatation only), the tangent's stress terms use the element
+    pressure ``pbar_in[e]`` instead of ``kappa (theta - 1)`` (the mixed-integration-point
+    Newton, see :mod:`.newton`); the energy and residual never do."""
     nel, nq = wq.shape
     nbf = edofs.shape[1]
     nd = 3 * nbf
     for e in nb.prange(nel):
+        c10, c20, c30, kappa = c10s[e], c20s[e], c30s[e], kappas[e]
         ue = np.empty((nbf, 3))
         for a in range(nbf):
             d = 3 * edofs[e, a]
@@ -79,6 +86,7 @@ def solid(u, edofs, dN, wq, c10, c20, c30, kappa, mean_dil, want_k, W, R, K, bad
             vcur += wq[e, q] * Jq[q]
         theta = vcur / vol
         pbar = kappa * (theta - 1.0)
+        pk = pbar_in[e] if mixed and mean_dil else pbar
         energy = 0.5 * kappa * vol * (theta - 1.0) ** 2 if mean_dil else 0.0
         gv = np.zeros(nd)
         f = np.empty((nbf, 3))
@@ -100,13 +108,13 @@ def solid(u, edofs, dN, wq, c10, c20, c30, kappa, mean_dil, want_k, W, R, K, bad
             W11 = 2.0 * c20 + 6.0 * c30 * x
             if mean_dil:
                 pc = pbar * Jd
-                cA = pc
+                cA = pk * Jd
             else:
                 energy += w * 0.5 * kappa * (Jd - 1.0) ** 2
                 up = kappa * (Jd - 1.0)
                 pc = up * Jd
                 cA = kappa * Jd * Jd + pc
-            cB = pc
+            cB = cA if mean_dil else pc
             for a in range(nbf):
                 for i in range(3):
                     sf = 0.0
@@ -152,153 +160,38 @@ def solid(u, edofs, dN, wq, c10, c20, c30, kappa, mean_dil, want_k, W, R, K, bad
                     t += 1
 
 
-@nb.njit(cache=_CACHE, inline="always")
-def _start_facet(u, X, fdofs, e, nd, want_k, R, K):
-    """Current positions of facet ``e``'s nodes; zero its residual (and stiffness) rows."""
-    nbf = fdofs.shape[1]
-    xe = np.empty((nbf, 3))
-    for a in range(nbf):
-        d = fdofs[e, a]
-        for i in range(3):
-            xe[a, i] = X[d, i] + u[3 * d + i]
-    for r in range(nd):
-        R[e, r] = 0.0
-    if want_k:
-        for r in range(K.shape[1]):
-            K[e, r] = 0.0
-    return xe
-
-
 @nb.njit(parallel=True, cache=_CACHE)
-def membrane(u, X, fdofs, dNs, wa, dmod, nu, want_k, W, R, K):
-    """St.Venant-Kirchhoff membrane, plane stress; ``dmod`` = E t / (1 - nu^2)."""
-    nf, nq = wa.shape
-    nbf = fdofs.shape[1]
-    nd = 3 * nbf
-    for e in nb.prange(nf):
-        xe = _start_facet(u, X, fdofs, e, nd, want_k, R, K)
-        energy = 0.0
-        Fs = np.empty((3, 2))
-        Bv = np.empty((nd, 3))
-        for q in range(nq):
-            w = wa[e, q]
-            for i in range(3):
-                for al in range(2):
-                    s = 0.0
-                    for a in range(nbf):
-                        s += xe[a, i] * dNs[e, q, a, al]
-                    Fs[i, al] = s
-            e11 = 0.5 * (Fs[0, 0] ** 2 + Fs[1, 0] ** 2 + Fs[2, 0] ** 2 - 1.0)
-            e22 = 0.5 * (Fs[0, 1] ** 2 + Fs[1, 1] ** 2 + Fs[2, 1] ** 2 - 1.0)
-            e12 = 0.5 * (Fs[0, 0] * Fs[0, 1] + Fs[1, 0] * Fs[1, 1] + Fs[2, 0] * Fs[2, 1])
-            s11 = dmod * (e11 + nu * e22)
-            s22 = dmod * (e22 + nu * e11)
-            s12 = dmod * (1.0 - nu) * e12
-            energy += 0.5 * w * (s11 * e11 + s22 * e22 + 2.0 * s12 * e12)
-            for a in range(nbf):
-                n1 = dNs[e, q, a, 0]
-                n2 = dNs[e, q, a, 1]
-                for i in range(3):
-                    R[e, 3 * a + i] += w * (Fs[i, 0] * (s11 * n1 + s12 * n2)
-                                            + Fs[i, 1] * (s12 * n1 + s22 * n2))
-                    Bv[3 * a + i, 0] = Fs[i, 0] * n1
-                    Bv[3 * a + i, 1] = Fs[i, 1] * n2
-                    Bv[3 * a + i, 2] = Fs[i, 0] * n2 + Fs[i, 1] * n1
-            if not want_k:
-                continue
-            t = 0
-            for r in range(nd):
-                a = r // 3
-                i = r - 3 * a
-                for s in range(r, nd):
-                    b = s // 3
-                    k = s - 3 * b
-                    v = dmod * (Bv[r, 0] * (Bv[s, 0] + nu * Bv[s, 1])
-                                + Bv[r, 1] * (Bv[s, 1] + nu * Bv[s, 0])
-                                + 0.5 * (1.0 - nu) * Bv[r, 2] * Bv[s, 2])
-                    if i == k:
-                        na1 = dNs[e, q, a, 0]
-                        na2 = dNs[e, q, a, 1]
-                        nb1 = dNs[e, q, b, 0]
-                        nb2 = dNs[e, q, b, 1]
-                        v += (na1 * (s11 * nb1 + s12 * nb2) + na2 * (s12 * nb1 + s22 * nb2))
-                    K[e, t] += w * v
-                    t += 1
-        W[e] = energy
-
-
-@nb.njit(parallel=True, cache=_CACHE)
-def pressure(u, X, fdofs, Nq, dNq, wr, p, want_k, V, R, K):
-    """Follower pressure ``p`` on facets oriented with the solid's outward normal.
-
-    ``R[e, 3a+i] = p * int N_a (x,1 x x,2)_i dxi`` = p * int N_a cof(F) N0 dA (Nanson),
-    the gradient of -p * V_cavity; ``V[e] = -(1/3) int x . (x,1 x x,2) dxi`` is the facet's
-    share of the enclosed cavity volume. ``K`` is the symmetric part of dR/du.
-    """
-    nf = fdofs.shape[0]
-    nq = wr.shape[0]
-    nbf = fdofs.shape[1]
-    nd = 3 * nbf
-    for e in nb.prange(nf):
-        xe = _start_facet(u, X, fdofs, e, nd, want_k, R, K)
+def element_pressure(u, d, edofs, dN, wq, kappas, out):
+    """Mean-dilatation pressure ``kappa (theta - 1)`` at ``u`` plus its change along ``d``
+    to first order, ``kappa dtheta`` with ``dtheta = (1/V) int J tr(F^-1 grad d)``."""
+    nel, nq = wq.shape
+    nbf = edofs.shape[1]
+    for e in nb.prange(nel):
+        F = np.empty((3, 3))
+        G = np.empty((3, 3))
+        H = np.empty((3, 3))
         vol = 0.0
-        a1 = np.empty(3)
-        a2 = np.empty(3)
-        xq = np.empty(3)
-        n = np.empty(3)
-        Kf = np.zeros((nd, nd))
+        vcur = 0.0
+        dv = 0.0
         for q in range(nq):
             for i in range(3):
-                s1 = 0.0
-                s2 = 0.0
-                s0 = 0.0
-                for a in range(nbf):
-                    s1 += xe[a, i] * dNq[q, a, 0]
-                    s2 += xe[a, i] * dNq[q, a, 1]
-                    s0 += xe[a, i] * Nq[q, a]
-                a1[i] = s1
-                a2[i] = s2
-                xq[i] = s0
-            n[0] = a1[1] * a2[2] - a1[2] * a2[1]
-            n[1] = a1[2] * a2[0] - a1[0] * a2[2]
-            n[2] = a1[0] * a2[1] - a1[1] * a2[0]
-            w = wr[q]
-            vol -= w * (xq[0] * n[0] + xq[1] * n[1] + xq[2] * n[2]) / 3.0
-            for a in range(nbf):
-                for i in range(3):
-                    R[e, 3 * a + i] += w * p * Nq[q, a] * n[i]
-            if not want_k:
-                continue
-            # d(a1 x a2)/dx_b = N_b,2 [a1]x - N_b,1 [a2]x ; [v]x w = v x w
-            for a in range(nbf):
-                c = w * p * Nq[q, a]
-                for b in range(nbf):
-                    m1 = c * dNq[q, b, 1]
-                    m2 = c * dNq[q, b, 0]
-                    # skew(v) = [[0,-v2,v1],[v2,0,-v0],[-v1,v0,0]]
-                    for i in range(3):
-                        for k in range(3):
-                            sk1 = _skew(a1, i, k)
-                            sk2 = _skew(a2, i, k)
-                            Kf[3 * a + i, 3 * b + k] += m1 * sk1 - m2 * sk2
-        V[e] = vol
-        if want_k:
-            t = 0
-            for r in range(nd):
-                for s in range(r, nd):
-                    K[e, t] = 0.5 * (Kf[r, s] + Kf[s, r])
-                    t += 1
-
-
-@nb.njit(cache=_CACHE, inline="always")
-def _skew(v, i, k):
-    if i == k:
-        return 0.0
-    if i == 0:
-        return -v[2] if k == 1 else v[1]
-    if i == 1:
-        return v[2] if k == 0 else -v[0]
-    return -v[1] if k == 0 else v[0]
+                for J in range(3):
+                    s = 0.0
+                    t = 0.0
+                    for a in range(nbf):
+                        k = 3 * edofs[e, a] + i
+                        s += u[k] * dN[e, q, a, J]
+                        t += d[k] * dN[e, q, a, J]
+                    F[i, J] = s + (1.0 if i == J else 0.0)
+                    G[i, J] = t
+            Jd = _cofactor(F, H)  # H = cof(F) = J F^-T
+            w = wq[e, q]
+            vol += w
+            vcur += w * Jd
+            for i in range(3):
+                for J in range(3):
+                    dv += w * H[i, J] * G[i, J]  # J tr(F^-1 G) = cof(F) : G
+        out[e] = kappas[e] * (vcur / vol - 1.0) + kappas[e] * dv / vol
 
 
 @nb.njit(cache=_CACHE)

@@ -29,6 +29,22 @@ Membrane
 The paper sheet is a large-deformation St.Venant-Kirchhoff membrane (plane stress, Green
 -Lagrange strain) on the ``strain_limiting_layer`` facets: stretching stiffness E*t is
 exact and it adds no bending stiffness (the supplement's STRI65 shells add a tiny one).
+
+Compression is relaxed (``wrinkles=True``, :mod:`.surface`): a 0.1 mm sheet bonded to
+rubber cannot carry more compression than its wrinkling load. A stiff film on a compliant
+half-space wrinkles at the strain ``eps_c = 1/4 (3 Es / Ef)^(2/3)`` (plane-strain moduli;
+Chen & Hutchinson, J. Appl. Mech. 71:597, 2004; Huang, Hong & Suo, JMPS 53:2101, 2005):
+for 6.5 GPa paper on Elastosil M4601 (Es = 8 C10 = 0.88 MPa) 1.3e-3, on Ecoflex 00-30
+(0.065 MPa) 2.4e-4. Beyond it the sheet buckles out of plane with a wavelength of
+1-2 cm and its compressive force stays near ``Ef t eps_c`` (0.9 and 0.16 N/mm). A
+membrane without bending stiffness has no such limit: pressed further, it buckles at the
+scale of the elements instead, a mesh-dependent instability -- the Ecoflex stalls of
+issue 17 (0.94/1.40/2.23 kPa on three meshes) had half the sheet in compression, down to
+-0.68 N/mm, with negative pivots. The relaxed sheet keeps E*t in tension (the strain
+limit is unchanged) and holds compression at the wrinkling force. The half-space formula
+is an estimate (assumed: the sheet is embedded, rubber on both sides of finite
+thickness, which moves eps_c by a factor of order one); ``wrinkles=False`` restores the
+plain St.Venant-Kirchhoff sheet.
 """
 
 from __future__ import annotations
@@ -54,6 +70,8 @@ class Yeoh:
     density_g_per_ml : mass density (g/mL).
     bulk_ratio : K / mu of the volumetric penalty, mu = 2 C10.
     volumetric : ``"mean_dilatation"`` (P2/P0, default) or ``"penalty"`` (pointwise).
+    stretch_at_break : 1 + the elongation at break; a curve ends where the largest
+        principal stretch passes it (None: no such stop).
     """
 
     c10_mpa: float = ELASTOSIL.c10_mpa
@@ -62,6 +80,7 @@ class Yeoh:
     density_g_per_ml: float = ELASTOSIL.density_g_per_ml
     bulk_ratio: float = 200.0
     volumetric: str = "mean_dilatation"
+    stretch_at_break: float | None = None
 
     def __post_init__(self) -> None:
         if not self.c10_mpa > 0:
@@ -72,6 +91,8 @@ class Yeoh:
             raise DesignError("density_g_per_ml", f"must be >= 0, got {self.density_g_per_ml}")
         if not self.bulk_ratio > 1:
             raise DesignError("bulk_ratio", f"K/mu must be > 1, got {self.bulk_ratio}")
+        if self.stretch_at_break is not None and not self.stretch_at_break > 1:
+            raise DesignError("stretch_at_break", f"must be > 1, got {self.stretch_at_break}")
         if self.volumetric not in VOLUMETRIC_TREATMENTS:
             raise DesignError("volumetric", f"one of {VOLUMETRIC_TREATMENTS}, "
                               f"got {self.volumetric!r}")
@@ -107,11 +128,17 @@ class Membrane:
     modulus_mpa : Young's modulus (supplement: 6.5 GPa).
     poisson : Poisson's ratio (supplement: 0.2).
     thickness_mm : sheet thickness (0.1 mm).
+    wrinkles : compression beyond the wrinkling strain on ``substrate`` is relaxed
+        (see the module notes); False for the plain St.Venant-Kirchhoff sheet.
+    wrinkling_strain : the compressive strain at which the sheet wrinkles; None: the
+        half-space estimate on the elastomer (:meth:`wrinkling_strain_on`).
     """
 
     modulus_mpa: float = 6500.0
     poisson: float = 0.2
     thickness_mm: float = 0.1
+    wrinkles: bool = True
+    wrinkling_strain: float | None = None
 
     def __post_init__(self) -> None:
         if not self.modulus_mpa > 0:
@@ -120,8 +147,29 @@ class Membrane:
             raise DesignError("poisson", f"must be in (-1, 0.5), got {self.poisson}")
         if not self.thickness_mm > 0:
             raise DesignError("thickness_mm", f"must be > 0, got {self.thickness_mm}")
+        if self.wrinkling_strain is not None and self.wrinkling_strain < 0:
+            raise DesignError("wrinkling_strain", f"must be >= 0, got {self.wrinkling_strain}")
 
     @property
     def stiffness_n_per_mm(self) -> float:
         """Stretching stiffness E * t."""
         return self.modulus_mpa * self.thickness_mm
+
+    @property
+    def plane_stress_stiffness_n_per_mm(self) -> float:
+        """E t / (1 - nu^2), the sheet's biaxial stiffness."""
+        return self.stiffness_n_per_mm / (1.0 - self.poisson ** 2)
+
+    def wrinkling_strain_on(self, substrate: Yeoh) -> float:
+        """Compressive strain at which the sheet wrinkles on ``substrate``: the given
+        ``wrinkling_strain``, or the half-space estimate ``1/4 (3 Es / Ef)^(2/3)``
+        (plane-strain moduli; Es = 8 C10 for an incompressible rubber)."""
+        if self.wrinkling_strain is not None:
+            return self.wrinkling_strain
+        es = 8.0 * substrate.c10_mpa
+        ef = self.modulus_mpa / (1.0 - self.poisson ** 2)
+        return 0.25 * (3.0 * es / ef) ** (2.0 / 3.0)
+
+    def wrinkling_force_n_per_mm(self, substrate: Yeoh) -> float:
+        """The compressive membrane force the sheet holds once wrinkled (N/mm)."""
+        return self.plane_stress_stiffness_n_per_mm * self.wrinkling_strain_on(substrate)

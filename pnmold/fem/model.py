@@ -26,7 +26,7 @@ from skfem.refdom import RefTri
 
 from ..errors import MeshingError
 from ..tetmesh import CAVITY, FREE_END, STRAIN_LIMITING_LAYER, TetMesh
-from . import kernels
+from . import kernels, surface
 from .material import Membrane, Yeoh
 
 log = logging.getLogger(__name__)
@@ -46,8 +46,30 @@ class Load:
 
 
 @dataclass
+class Stresses:
+    """The stresses the tangent is built with in the mixed-integration-point Newton:
+    the element pressures of the mean dilatation (MPa, one per tet) and the sheet's
+    stress (N/mm, (facet, quadrature point, S11/S22/S12); None without a sheet)."""
+
+    pbar: np.ndarray
+    sheet: np.ndarray | None
+
+    def combine(self, weights: list[float], others: list[Stresses]) -> Stresses:
+        """``sum_i weights[i] * others[i]`` (this one is a template only)."""
+        pbar = sum(w * o.pbar for w, o in zip(weights, others, strict=True))
+        sheet = (None if self.sheet is None else
+                 sum(w * o.sheet for w, o in zip(weights, others, strict=True)))
+        return Stresses(pbar, sheet)
+
+
+@dataclass
 class Evaluation:
-    """Residual (full length), energy and optionally the reduced tangent at one state."""
+    """Residual (full length), energy and optionally the reduced tangent at one state.
+
+    ``volume_gradient`` is dV_cavity/du (full length; None without a cavity);
+    ``inverted`` the indices of the tetrahedra with J <= 0 somewhere (then ``ok`` is False);
+    ``wrinkled`` the fraction of the sheet's quadrature points that are wrinkled or slack.
+    """
 
     residual: np.ndarray
     energy: float
@@ -56,6 +78,30 @@ class Evaluation:
     cavity_volume_mm3: float
     contact_force_n: float
     matrix: sp.csr_matrix | None = None
+    volume_gradient: np.ndarray | None = None
+    inverted: np.ndarray | None = None
+    wrinkled: float = 0.0
+
+
+def _element_constants(mesh: TetMesh, material: Yeoh,
+                       regions: Mapping[str, Yeoh]) -> tuple[np.ndarray, np.ndarray]:
+    """Per element: (4, n_tets) rows C10, C20, C30, bulk modulus (MPa), and the density
+    relative to ``material``'s."""
+    def row(m: Yeoh) -> list[float]:
+        return [m.c10_mpa, m.c20_mpa, m.c30_mpa, m.bulk_modulus_mpa]
+
+    constants = np.repeat(np.array(row(material))[:, None], mesh.n_tets, axis=1)
+    ratio = np.ones(mesh.n_tets)
+    for name, rubber in regions.items():
+        if name not in mesh.regions:
+            raise MeshingError(f"element set {name!r} of a second rubber is not in the mesh")
+        if rubber.volumetric != material.volumetric:
+            raise MeshingError(f"element set {name!r}: volumetric treatment "
+                               f"{rubber.volumetric!r} differs from the body's {material.volumetric!r}")
+        idx = mesh.regions[name]
+        constants[:, idx] = np.array(row(rubber))[:, None]
+        ratio[idx] = rubber.density_g_per_ml / material.density_g_per_ml
+    return np.ascontiguousarray(constants), ratio
 
 
 class Model:
@@ -69,11 +115,15 @@ class Model:
     fixed : facet-set name -> displacement components held at their prescribed values
         (e.g. ``{"clamp": (0, 1, 2), "symmetry": (1,)}``).
     contact_set : facet set whose nodes may touch the rigid plane of a :class:`Load`.
+    regions : element-set name -> the rubber of those elements instead of ``material``
+        (e.g. a strain-limiting layer cast in a stiffer silicone); same volumetric treatment.
     """
 
     def __init__(self, mesh: TetMesh, material: Yeoh, membrane: Membrane | None,
-                 fixed: Mapping[str, Sequence[int]], contact_set: str = FREE_END):
+                 fixed: Mapping[str, Sequence[int]], contact_set: str = FREE_END,
+                 regions: Mapping[str, Yeoh] | None = None):
         self.mesh, self.material, self.membrane = mesh, material, membrane
+        self.constants, self.density_ratio = _element_constants(mesh, material, regions or {})
         tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
         self.skmesh = MeshTet(np.asarray(mesh.nodes_mm, float).T.copy(), tets.T.copy())
         self.basis = Basis(self.skmesh, ElementTetP2(), intorder=2)
@@ -106,8 +156,10 @@ class Model:
         self._build_pattern()
         self._build_membrane()
         self._build_pressure()
-        scalar_load = LinearForm(lambda v, w: v).assemble(b)
-        self.volume_load = np.asarray(scalar_load)  # int N_s dV per scalar dof
+        ratio = np.repeat(self.density_ratio[:, None], self.wq.shape[1], axis=1)
+        scalar_load = LinearForm(lambda v, w: w.rho * v).assemble(b, rho=ratio)
+        #: int N_s rho/rho_material dV per scalar dof (the weight of every region's rubber)
+        self.volume_load = np.asarray(scalar_load)
         cnodes = self.facet_dofs.get(contact_set)
         self.contact_nodes = np.unique(cnodes) if cnodes is not None else np.zeros(0, int)
         log.info("P2 model: %d tets, %d unknowns, %d nonzeros (upper)", self.edofs.shape[0],
@@ -194,9 +246,28 @@ class Model:
         M = np.stack([np.einsum("kqdi,kqi->kqd", G, t) for t in (t1, t2)], axis=-1)
         dNs = np.einsum("adq,kqbd->kqab", dref, np.linalg.inv(M))
         self.mem_dofs = fd
+        self.mem_nc = self._sheet_compression(area * wts)
         self.mem_dNs = np.ascontiguousarray(dNs)
         self.mem_w = np.ascontiguousarray(area * wts)
         self.kmap_mem = self._map_facets(fd)
+
+    def _sheet_compression(self, weights: np.ndarray) -> float:
+        """The compressive force (N/mm) the sheet holds: its wrinkling force, but no more
+        than half the load at which a membrane without bending stiffness, on this rubber,
+        buckles at the scale of its elements: ``Es h / (4 pi)`` for a wrinkle of
+        wavelength ``h`` on an incompressible half-space (plane-strain modulus Es = 8 C10;
+        h the sheet's median element size). Beyond it the discrete sheet would wrinkle
+        element by element -- a mesh-dependent instability, not the paper's (the material
+        module notes the physics; as h -> 0 this tends to tension-field theory, the relaxed
+        energy of a sheet without bending stiffness)."""
+        physical = self.membrane.wrinkling_force_n_per_mm(self.material)
+        h = float(np.median(np.sqrt(2.0 * weights.sum(axis=1))))
+        mesh = 0.5 * 8.0 * self.material.c10_mpa * h / (4.0 * np.pi)
+        if mesh < physical:
+            log.info("sheet: compression held at %.3g N/mm (element-scale buckling of the "
+                     "membrane at %.2g mm elements), below its wrinkling force %.3g N/mm",
+                     mesh, h, physical)
+        return min(physical, mesh)
 
     def _build_pressure(self) -> None:
         fd = self.facet_dofs.get(CAVITY)
@@ -217,58 +288,41 @@ class Model:
         """Consistent nodal forces of a uniform force density (full length)."""
         return (self.volume_load[:, None] * np.asarray(gravity_n_per_mm3, float)).ravel()
 
-    def evaluate(self, u: np.ndarray, load: Load, want_k: bool = False) -> Evaluation:
-        """Residual, energy (and the reduced upper-triangular tangent) at ``u``."""
-        mat = self.material
+    def stresses(self, u: np.ndarray, d: np.ndarray | None = None) -> Stresses:
+        """Element pressures and sheet stresses at ``u``, plus their first-order change
+        along the displacement ``d`` (full length) when given."""
+        u = np.ascontiguousarray(u, dtype=float)
+        d = np.zeros_like(u) if d is None else np.ascontiguousarray(d, dtype=float)
+        pbar = np.zeros(self.edofs.shape[0])
+        kernels.element_pressure(u, d, self.edofs, self.dN, self.wq, self.constants[3], pbar)
+        sheet = None
+        if self.mem_dofs is not None:
+            mb = self.membrane
+            sheet = np.zeros((*self.mem_w.shape, 3))
+            surface.membrane_stress(u, d, self.X, self.mem_dofs, self.mem_dNs,
+                                    mb.plane_stress_stiffness_n_per_mm, mb.poisson,
+                                    self.mem_nc, mb.wrinkles, sheet)
+        return Stresses(pbar, sheet)
+
+    def evaluate(self, u: np.ndarray, load: Load, want_k: bool = False,
+                 mixed: Stresses | None = None) -> Evaluation:
+        """Residual, energy (and the reduced upper-triangular tangent) at ``u``; with
+        ``mixed``, the tangent's stress terms use those stresses (see :mod:`.newton`)."""
         u = np.ascontiguousarray(u, dtype=float)
         R = np.zeros(self.ndof)
         Rext = np.zeros(self.ndof)
         data = np.zeros(self.indices.size) if want_k else None
-        energy, ok = 0.0, True
-        kappa = mat.bulk_modulus_mpa
-        mean_dil = mat.volumetric == "mean_dilatation"
-        nel = self.edofs.shape[0]
-        ntri = 465 if want_k else 1
-        for s in range(0, nel, _CHUNK):
-            sl = slice(s, min(s + _CHUNK, nel))
-            m = sl.stop - sl.start
-            W, Re, bad = np.empty(m), np.empty((m, 30)), np.zeros(m, np.int8)
-            Ke = np.empty((m, ntri))
-            kernels.solid(u, self.edofs[sl], self.dN[sl], self.wq[sl], mat.c10_mpa,
-                          mat.c20_mpa, mat.c30_mpa, kappa, mean_dil, want_k, W, Re, Ke, bad)
-            if bad.any():
-                ok = False
-                break
-            energy += W.sum()
-            kernels.scatter_vector(Re, self.edofs[sl], R)
-            if want_k:
-                kernels.scatter_matrix(Ke, self.kmap_solid[sl], data)
-        if not ok:
-            return Evaluation(R, np.inf, False, 0.0, np.nan, 0.0)
+        energy, inverted = self._solid(u, want_k, R, data, mixed)
+        if inverted.size:
+            return Evaluation(R, np.inf, False, 0.0, np.nan, 0.0, inverted=inverted)
+        wrinkled = 0.0
         if self.mem_dofs is not None:
-            mb = self.membrane
-            dmod = mb.stiffness_n_per_mm / (1.0 - mb.poisson ** 2)
-            nf = self.mem_dofs.shape[0]
-            W, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
-            kernels.membrane(u, self.X, self.mem_dofs, self.mem_dNs, self.mem_w, dmod,
-                             mb.poisson, want_k, W, Re, Ke)
-            energy += W.sum()
-            kernels.scatter_vector(Re, self.mem_dofs, R)
-            if want_k:
-                kernels.scatter_matrix(Ke, self.kmap_mem, data)
-        volume = np.nan
+            w, wrinkled = self._membrane(u, want_k, R, data, mixed)
+            energy += w
+        volume, dvdu = np.nan, None
         if self.cav_dofs is not None:
-            nf = self.cav_dofs.shape[0]
-            V, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
-            p = load.pressure_mpa
-            kernels.pressure(u, self.X, self.cav_dofs, self.cav_N, self.cav_dN, self.cav_w,
-                             p, want_k and p != 0.0, V, Re, Ke)
-            volume = float(V.sum())
-            energy -= p * volume
-            if p != 0.0:
-                kernels.scatter_vector(Re, self.cav_dofs, Rext)
-                if want_k:
-                    kernels.scatter_matrix(Ke, self.kmap_cav, data)
+            volume, dvdu = self._pressure(u, load.pressure_mpa, want_k, Rext, data)
+            energy -= load.pressure_mpa * volume
         if any(load.gravity_n_per_mm3):
             fg = self.gravity_vector(load.gravity_n_per_mm3)
             Rext -= fg
@@ -292,4 +346,68 @@ class Model:
         if want_k:
             n = self.free.size
             mtx = sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
-        return Evaluation(R, energy, True, ext, volume, force, mtx)
+        return Evaluation(R, energy, True, ext, volume, force, mtx, dvdu, np.zeros(0, np.int64),
+                          wrinkled)
+
+    def _solid(self, u: np.ndarray, want_k: bool, R: np.ndarray, data: np.ndarray | None,
+               mixed: Stresses | None) -> tuple[float, np.ndarray]:
+        """Elastomer energy; adds its residual (and tangent); indices of inverted tets."""
+        mat = self.material
+        mean_dil = mat.volumetric == "mean_dilatation"
+        nel = self.edofs.shape[0]
+        ntri = 465 if want_k else 1
+        energy, bad_all = 0.0, []
+        use = mixed is not None and want_k
+        pbar = mixed.pbar if use else np.zeros(nel)
+        for s in range(0, nel, _CHUNK):
+            sl = slice(s, min(s + _CHUNK, nel))
+            m = sl.stop - sl.start
+            W, Re, bad = np.empty(m), np.empty((m, 30)), np.zeros(m, np.int8)
+            Ke = np.empty((m, ntri))
+            c10, c20, c30, kappa = self.constants[:, sl]
+            kernels.solid(u, self.edofs[sl], self.dN[sl], self.wq[sl], c10, c20, c30, kappa,
+                          mean_dil, want_k, use, pbar[sl], W, Re, Ke, bad)
+            if bad.any():
+                bad_all.append(s + np.flatnonzero(bad))
+                continue
+            if bad_all:
+                continue
+            energy += W.sum()
+            kernels.scatter_vector(Re, self.edofs[sl], R)
+            if want_k:
+                kernels.scatter_matrix(Ke, self.kmap_solid[sl], data)
+        inverted = np.concatenate(bad_all) if bad_all else np.zeros(0, np.int64)
+        return energy, inverted
+
+    def _membrane(self, u: np.ndarray, want_k: bool, R: np.ndarray, data: np.ndarray | None,
+                  mixed: Stresses | None) -> tuple[float, float]:
+        """Sheet energy and the wrinkled fraction; adds its residual (and tangent)."""
+        mb = self.membrane
+        nf = self.mem_dofs.shape[0]
+        W, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
+        regime = np.zeros(nf, np.int64)
+        use = mixed is not None and want_k and mixed.sheet is not None
+        sheet = mixed.sheet if use else np.zeros((1, 1, 3))
+        surface.membrane(u, self.X, self.mem_dofs, self.mem_dNs, self.mem_w,
+                         mb.plane_stress_stiffness_n_per_mm, mb.poisson, self.mem_nc,
+                         mb.wrinkles, want_k, use, sheet, W, Re, Ke, regime)
+        kernels.scatter_vector(Re, self.mem_dofs, R)
+        if want_k:
+            kernels.scatter_matrix(Ke, self.kmap_mem, data)
+        return float(W.sum()), float(regime.sum()) / self.mem_w.size
+
+    def _pressure(self, u: np.ndarray, p: float, want_k: bool, Rext: np.ndarray,
+                  data: np.ndarray | None) -> tuple[float, np.ndarray]:
+        """Cavity volume and dV/du; adds the pressure's load (and its tangent) at ``p``."""
+        nf = self.cav_dofs.shape[0]
+        V, Re, Ke = np.empty(nf), np.empty((nf, 18)), np.empty((nf, 171 if want_k else 1))
+        surface.pressure(u, self.X, self.cav_dofs, self.cav_N, self.cav_dN, self.cav_w, 1.0,
+                         want_k and p != 0.0, V, Re, Ke)
+        unit = np.zeros(self.ndof)  # the load of 1 MPa: -dV/du
+        kernels.scatter_vector(Re, self.cav_dofs, unit)
+        if p != 0.0:
+            Rext += p * unit
+            if want_k:
+                Ke *= p
+                kernels.scatter_matrix(Ke, self.kmap_cav, data)
+        return float(V.sum()), -unit

@@ -1,41 +1,68 @@
-"""Newton's method with a guarded line search, and adaptive load stepping.
+"""Newton's method under load control or cavity-volume control, globalised on the energy.
 
-Why these choices (measured on fPN bodies, see the FEM module notes): thin walls of a
-nearly incompressible elastomer, bonded to a nearly inextensible sheet, rotate a lot at
-small pressures. An additive Newton step linearises those rotations, so the trial state
-carries spurious volume change and sheet stretch ~ (rotation)^2 x (a huge modulus): the
-residual spikes after a good step and the next iteration removes the spike. An energy or
-slope line search reads the spike as "too long a step" and crawls, so the line search
-here is a *guard*: the full step is taken unless it inverts an element (then alpha is
-halved) or, from iteration ``line_search_from`` on, the slope of the potential along
-the step ``g(alpha) = d . R(u + alpha d)`` shows the step overshoots a minimum by far
-(then secant steps on g, Crisfield's line search on the energy using residuals only).
+The load is conservative (cavity pressure is ``p dV``, gravity a dead load, contact a
+penalty), so a potential ``Pi(u) = W(u) - p V(u) - f_g . u + W_contact`` exists and the
+tangent is symmetric. Each iteration factors the tangent (PARDISO) and searches along the
+step on a merit function:
 
-Load stepping: increments start at ``first`` and are scaled by ``target_iterations /
-iterations`` (within [0.5, growth]); failed ones are halved (or shrunk to the allowed
-first correction). The first increment of a stage starts from the equilibrium tangent
-(the load of the last converged state, an Euler predictor), later ones from an
-extrapolation of the last converged states (:func:`_predict`). More than ``max_cuts`` consecutive
-cuts raise :class:`SolveError` with the last converged load and the residual history.
+- load control (``volume=None``): ``Pi(u)`` itself;
+- volume control (the cavity volume ``V*`` prescribed, the pressure an unknown, as a
+  syringe pump drives the supplement's P-V test): the bordered system
+  ``K du - g dp = -R, g . du = V* - V`` (``g = dV/du``), solved by block elimination with
+  one factorisation and two back-substitutions; the merit is the augmented Lagrangian
+  ``Pi(u; p_new) + p_new V* + rho/2 (V - V*)^2``, ``rho`` large enough for descent.
+
+What makes this body hard, measured on the fPN (issue 17): thin rubber walls and soft
+chamber hinges bonded to a nearly inextensible sheet give the tangent eigenvalues from
+~1e-5 (the body's own bending, a chamber rocking on its floor) to ~1e3 (the sheet's
+E*t); an additive step linearises rotations, so a predicted or corrected state carries a
+spurious stretch (sheet) and volume change (mean dilatation) ~ rotation^2 times those
+stiff moduli. Three consequences and their treatment here:
+
+1. The tangent at a predicted state is polluted by those spurious stresses (on the fPN,
+   hundreds of negative pivots at an extrapolated state). The *mixed-integration-point*
+   Newton (Magisano, Leonetti & Garcea, CMAME 313:986, 2017) builds the tangent's stress
+   terms -- the element pressures of the mean dilatation and the sheet's stress -- from
+   independent stresses: predicted with the displacements, then updated by the
+   Hellinger-Reissner linearisation ``s + alpha (S(u) + C:B d - s)`` after each step.
+   The energy and residual are never changed, so the converged solution is the
+   displacement solution. On the fPN 0 -> 20 kPa it cut the factorisations from 426
+   to 99 (same converged curve).
+2. The residual norm is dominated by the sheet: a correction of 0.01 mm along the soft
+   bending leaves a residual of the order of the tolerance in the sheet alone. Besides
+   the residual test (``rtol`` times the force scale, above the round-off floor of the
+   stiffest part), an increment is converged in the *energy norm* when the next
+   correction, estimated with the current factorisation, would gain less than
+   ``energy_rtol`` of the load's work so far.
+3. The spurious stretch raises the energy after a good step (the Maratos effect of
+   constrained optimisation), so a plain backtracking search crawls. Before shortening
+   a rejected step it is corrected with the residual at the trial state and the same
+   factorisation (a *second-order correction*, Nocedal & Wright, Numerical
+   Optimization, section 15.6), accepted only if it is a correction (no longer than the
+   step). A step is also accepted when it halves the residual (Newton's own measure).
+
+When the search has shortened the step twice in a row (crawling), the rest of the
+increment takes full steps guarded only against inverted elements: where the spurious
+stretch dominates the energy, the next Newton iteration removes it, as the plain guarded
+Newton this module replaced did. An increment fails fast (the caller then shortens
+it): when the tangent at the predicted state has more negative pivots than the last
+converged state's (the predictor went too far; ``strict``), when there is no progress
+after ``diverge_after`` iterations, or after ``max_iterations``.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import SolveError
 from .linsolve import linear_solver
-from .model import Evaluation, Load, Model
+from .model import Evaluation, Load, Model, Stresses
 
 log = logging.getLogger(__name__)
 
-#: The residual cannot drop below (stiffness) x (round-off of coordinates): with the
-#: paper's E*t = 650 N/mm that floor is ~1e-10 N, above rtol * load at small loads.
 _ROUNDOFF = 2 * np.finfo(float).eps
 
 
@@ -43,41 +70,60 @@ _ROUNDOFF = 2 * np.finfo(float).eps
 class NewtonOptions:
     """Tolerances, globalisation and step control of the nonlinear solve.
 
-    ``reuse_below``: from the third iteration, when the residual has fallen by this
-    factor or more since the previous one, the last factorisation is reused (a modified
-    Newton step: one back-substitution instead of a refactorisation). On the 5-chamber
-    fig-s2c-w2 curve with gravity it cut factorisations from 215 to 161 and the solve
-    time by 28%; 0 turns it off.
+    Parameters
+    ----------
+    rtol : residual tolerance relative to the force scale.
+    energy_rtol : or converged when the next correction would gain less than this
+        fraction of the load's work so far (an error of sqrt(energy_rtol) in the energy
+        norm; see :meth:`Newton._small_decrement`).
+    volume_rtol : cavity-volume tolerance relative to the prescribed volume.
+    max_iterations : Newton iterations per increment.
+    diverge_after : from this iteration on, give up when two iterations made no progress.
+    target_iterations : factorisations per increment the step control aims at.
+    growth : largest factor between consecutive increments.
+    max_cuts : halvings of a failed increment before the solve gives up.
+    max_correction : a Newton step moving a node more than this fraction of the body's
+        size is scaled down before the line search (a trust region against wild steps).
+    armijo : sufficient decrease of the merit along the step.
+    max_line_search : merit evaluations per line search after the correction.
+    predictor_order : order of the extrapolation of converged states.
+    mixed : build the tangent with the mixed-integration-point stresses (see the module
+        notes); False for the plain Newton tangent.
     """
 
     rtol: float = 1e-6
-    max_iterations: int = 14
-    diverge_after: int = 6
-    target_iterations: int = 5
+    energy_rtol: float = 1e-7
+    volume_rtol: float = 1e-7
+    max_iterations: int = 7
+    diverge_after: int = 4
+    target_iterations: int = 3
     growth: float = 2.0
-    max_cuts: int = 10
-    max_correction: float = 0.05
-    line_search_from: int = 2
-    line_search_eta: float = 0.8
-    max_line_search: int = 5
+    max_cuts: int = 8
+    max_correction: float = 0.25
+    armijo: float = 1e-4
+    max_line_search: int = 6
     predictor_order: int = 4
-    reuse_below: float = 0.2  # modified Newton once the residual falls 5x per iteration
+    mixed: bool = True
 
 
 @dataclass
 class NewtonResult:
-    """Outcome of one Newton solve; ``oversize`` > 1 when rejected for a too large step."""
+    """Outcome of one Newton solve. ``pressure_mpa`` is the solved pressure under volume
+    control (the given one under load control); ``why`` says why it failed."""
 
     converged: bool
     u: np.ndarray
     evaluation: Evaluation
     residuals: list[float]
-    oversize: float = 0.0
+    pressure_mpa: float = 0.0
+    factorizations: int = 0
+    why: str = ""
+    stresses: Stresses | None = None
 
 
 @dataclass
 class Stats:
-    """Counters and timings of one solve, in seconds."""
+    """Counters and timings of one curve, in seconds."""
 
     assembly_s: float = 0.0
     linear_solve_s: float = 0.0
@@ -86,14 +132,28 @@ class Stats:
     increments: int = 0
     cuts: int = 0
     newton_iterations: list[int] = field(default_factory=list)
-    reused_solves: int = 0
+    corrections: int = 0
+    stage_factorizations: dict[str, int] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         return {"assembly_s": self.assembly_s, "linear_solve_s": self.linear_solve_s,
-                "reused_solves": self.reused_solves,
+                "corrections": self.corrections,
                 "factorizations": self.factorizations, "increments": self.increments,
                 "residual_evaluations": self.residual_evaluations, "cuts": self.cuts,
-                "newton_iterations": list(self.newton_iterations)}
+                "newton_iterations": list(self.newton_iterations),
+                "stage_factorizations": dict(self.stage_factorizations)}
+
+
+@dataclass
+class _Point:
+    """A state on the line search: displacement, pressure, evaluation and merit."""
+
+    u: np.ndarray
+    p: float
+    ev: Evaluation
+    merit: float
+    how: str = ""
+    alpha: float = 1.0
 
 
 class Newton:
@@ -104,9 +164,19 @@ class Newton:
         self.options = options or NewtonOptions()
         self.linear = linear_solver()
         self.stats = Stats()
-        self._span = float(np.ptp(model.X, axis=0).max()) if model.X.size else 1.0
+        self.span = float(np.ptp(model.X, axis=0).max()) if model.X.size else 1.0
         self._floor = 0.0
+        self._rho = 0.0
+        #: a force (norm, N) below which the residual need not go relative to ``rtol``:
+        #: the solver sets it to the full weight, so that the first small increments of a
+        #: ramp are converged as well as the last, not 100 times better
+        self.reference_force = 0.0
+        #: negative pivots the tangent may have (the count at the last converged state)
+        self.inertia = 0
+        #: tetrahedra that inverted at a trial state of the last solve (for diagnostics)
+        self.inverted = np.zeros(0, np.int64)
 
+    # -- building blocks ----------------------------------------------------------------
     def evaluate(self, u: np.ndarray, load: Load, want_k: bool = False) -> Evaluation:
         """Timed :meth:`Model.evaluate`."""
         t = time.perf_counter()
@@ -115,173 +185,257 @@ class Newton:
         self.stats.residual_evaluations += not want_k
         return ev
 
-    def _tolerance(self, ev: Evaluation) -> float:
-        reaction = float(np.linalg.norm(ev.residual[self.model.fixed]))
-        return max(self.options.rtol * max(ev.external_norm, reaction), self._floor)
-
-    def _direction(self, u: np.ndarray, load: Load, r: np.ndarray) -> np.ndarray:
-        kev = self.evaluate(u, load, want_k=True)
-        self._floor = (_ROUNDOFF * self._span
-                       * float(np.linalg.norm(kev.matrix.data[self.model.diag_pos])))
+    def factor(self, u: np.ndarray, load: Load, mixed: Stresses | None = None) -> Evaluation:
+        """Assemble and factor the tangent at ``u`` (its stress terms from ``mixed`` if
+        given); returns the evaluation there."""
         t = time.perf_counter()
-        self.linear.factor(kev.matrix)
-        d = -self.linear.solve(r)
+        ev = self.model.evaluate(u, load, True, mixed)
+        self.stats.assembly_s += time.perf_counter() - t
+        self._floor = (_ROUNDOFF * self.span
+                       * float(np.linalg.norm(ev.matrix.data[self.model.diag_pos])))
+        t = time.perf_counter()
+        self.linear.factor(ev.matrix)
         self.stats.linear_solve_s += time.perf_counter() - t
         self.stats.factorizations += 1
-        return d
+        if mixed is None:  # a tangent at a converged state sets the inertia to expect
+            self.inertia = self.linear.negative_pivots
+        return ev
 
-    def _reuse(self, r: np.ndarray) -> np.ndarray:
-        """A modified-Newton correction with the current factorisation (no refactoring)."""
+    def back_solve(self, rhs: np.ndarray) -> np.ndarray:
+        """``K^-1 rhs`` with the last factorisation (free unknowns)."""
         t = time.perf_counter()
-        d = -self.linear.solve(r)
+        x = self.linear.solve(rhs)
         self.stats.linear_solve_s += time.perf_counter() - t
-        self.stats.reused_solves += 1
-        return d
+        return x
 
-    def solve(self, u0: np.ndarray, load: Load, tangent_load: Load | None = None
-              ) -> NewtonResult:
+    def tolerance(self, ev: Evaluation) -> float:
+        """Residual tolerance at ``ev``: rtol x force scale, above the round-off floor."""
+        reaction = float(np.linalg.norm(ev.residual[self.model.fixed]))
+        scale = max(ev.external_norm, reaction, self.reference_force)
+        return max(self.options.rtol * scale, self._floor)
+
+    def _merit(self, ev: Evaluation, p: float, volume: float | None) -> float:
+        if volume is None or not ev.ok:
+            return ev.energy
+        c = ev.cavity_volume_mm3 - volume
+        return ev.energy + p * volume + 0.5 * self._rho * c * c
+
+    # -- the solve ----------------------------------------------------------------------
+    def solve(self, u0: np.ndarray, load: Load, tangent_load: Load | None = None,
+              volume: float | None = None, stresses: Stresses | None = None,
+              work: float = 0.0, strict: bool = False) -> NewtonResult:
         """Newton from ``u0`` at ``load``.
 
-        ``tangent_load`` (the load of the converged state ``u0``) gives the first
-        iteration the equilibrium tangent. Gives up early when the first correction
-        exceeds ``max_correction`` x the body's size (``oversize`` says by how much) or
-        when the residual has not fallen over two iterations after ``diverge_after``.
+        With ``volume`` (mm^3, the whole model's cavity as meshed) the cavity volume is
+        prescribed and ``load.pressure_mpa`` is only the starting pressure: the result's
+        ``pressure_mpa`` is the pressure that holds it. ``stresses`` are the predicted
+        stresses of the first tangent (mixed Newton; default: those at ``u0``). ``work``
+        (N mm, the load's work so far) enables the energy-norm convergence test.
+        ``strict``: give up at once when the first tangent has more negative pivots than
+        the last converged state's (the predictor went too far; a retry with a shorter
+        increment passes ``strict=False``, as the path may really cross an instability).
+        ``tangent_load`` is accepted for compatibility and ignored.
         """
+        del tangent_load
         m, opt = self.model, self.options
-        u = u0.copy()
+        mixed = (stresses or m.stresses(u0)) if opt.mixed else None
+        p, u = load.pressure_mpa, u0.copy()
         ev = self.evaluate(u, load)
         history: list[float] = []
-        if not ev.ok:
-            return NewtonResult(False, u, ev, [float("inf")])
-        for it in range(opt.max_iterations + 1):
-            r = ev.residual[m.free]
-            rn = float(np.linalg.norm(r))
-            history.append(rn)
-            if rn <= self._tolerance(ev):
+        n_fact, short, guarded = 0, 0, False
+        self._rho = 0.0
+        self.inverted = ev.inverted if not ev.ok else np.zeros(0, np.int64)
+
+        def result(ok: bool, why: str = "") -> NewtonResult:
+            if ok:
+                self.inertia = self.linear.negative_pivots if n_fact else self.inertia
+                self.stats.newton_iterations.append(len(history) - 1)
                 log.debug("converged: residuals %s", " ".join(f"{h:.1e}" for h in history))
-                self.stats.newton_iterations.append(it)
-                return NewtonResult(True, u, ev, history)
-            # diverging: no progress over the last two iterations. Not "above the starting
-            # residual": after a tiny increment that one is tiny, the first correction's
-            # spurious rotation spike is not, and a converging solve would be cut forever.
-            if (it == opt.max_iterations or not np.isfinite(rn) or rn > 1e8 * history[0]
-                    or (it >= opt.diverge_after and rn > history[-3])):
-                break
-            if it >= 2 and opt.reuse_below > 0 and rn < opt.reuse_below * history[-2]:
-                d = self._reuse(r)  # converging fast: the last factorisation still serves
-            else:
-                d = self._direction(u, tangent_load if it == 0 and tangent_load else load, r)
-            if it == 0:
-                oversize = float(np.max(np.abs(d))) / (opt.max_correction * self._span)
-                if oversize > 1.0:
-                    log.debug("  first correction %.3g x the allowed size", oversize)
-                    return NewtonResult(False, u, ev, history, oversize)
-            u_new, ev_new, alpha = self._line_search(u, d, r, load, it >= opt.line_search_from)
-            if ev_new is None:
-                history.append(float("inf"))
-                break
-            log.debug("  it %d: |r| %.3e, |d| %.3e, alpha %.3g, negative pivots %d", it, rn,
-                      float(np.max(np.abs(d))), alpha, self.linear.negative_pivots)
-            u, ev = u_new, ev_new
-        return NewtonResult(False, u, ev, history)
+            return NewtonResult(ok, u, ev, history, p, n_fact, why,
+                                m.stresses(u) if ok else None)
 
-    def _line_search(self, u: np.ndarray, d: np.ndarray, r0: np.ndarray, load: Load,
-                     slope: bool) -> tuple[np.ndarray, Evaluation | None, float]:
-        """Full step unless it inverts elements or (``slope``) overshoots a minimum."""
+        if not ev.ok:
+            history.append(float("inf"))
+            return result(False, "the starting state inverts elements")
+        volume_tol = opt.volume_rtol * abs(volume) if volume is not None else 0.0
+        for it in range(opt.max_iterations + 1):
+            rn = float(np.linalg.norm(ev.residual[m.free]))
+            history.append(rn)
+            c = ev.cavity_volume_mm3 - volume if volume is not None else 0.0
+            if rn <= self.tolerance(ev) and abs(c) <= volume_tol and (it > 0 or self._floor > 0):
+                return result(True)
+            if not np.isfinite(rn) or rn > 1e8 * max(history[0], 1e-300):
+                return result(False, "the residual diverged")
+            if it == opt.max_iterations:
+                break
+            if it >= opt.diverge_after and rn > min(history[-3], history[-2]):
+                return result(False, "no progress")
+            self.factor(u, replace(load, pressure_mpa=p), mixed)
+            n_fact += 1
+            if strict and it == 0 and self.linear.negative_pivots > self.inertia:
+                return result(False, f"the tangent at the predicted state has "
+                              f"{self.linear.negative_pivots} negative pivots (at the last state "
+                              f"{self.inertia}): the step is too long")
+            step = self._step(u, p, ev, volume, load, guarded)
+            log.debug("  it %d: |r| %.3e -> %s", it, rn, "rejected" if step is None else
+                      f"{np.linalg.norm(step.ev.residual[m.free]):.3e} ({step.how})")
+            if step is None:
+                return result(False, "no descent: the line search found no acceptable step")
+            if mixed is not None:
+                mixed = self._update_stresses(u, step, mixed)
+            u, p, ev = step.u, step.p, step.ev
+            short = short + 1 if step.alpha < 0.3 else 0
+            if short >= 2 and not guarded:
+                # crawling: the energy reads a spurious stretch as an overlong step
+                # (module notes, 3.); from here on full steps, guarded against inversion
+                log.debug("  the line search keeps shortening the step: full steps from here")
+                guarded = True
+            polished = self._small_decrement(u, p, ev, volume, load, work, volume_tol) if work > 0 else None
+            if polished is not None:
+                u, p, ev = polished
+                history.append(float(np.linalg.norm(ev.residual[m.free])))
+                return result(True)
+        return result(False, f"not converged in {opt.max_iterations} iterations")
+
+    def _small_decrement(self, u: np.ndarray, p: float, ev: Evaluation, volume: float | None,
+                         load: Load, work: float, volume_tol: float
+                         ) -> tuple[np.ndarray, float, Evaluation] | None:
+        """Converged in the energy norm (module notes, 2.): the next correction, estimated
+        with the current factorisation (one back-substitution), would gain less than
+        ``energy_rtol`` of the work the load has done so far. Then up to three such
+        corrections are taken (one residual evaluation each, while the residual falls,
+        until it meets ``rtol``) and the state returned; else None."""
         m, opt = self.model, self.options
-        g0 = float(d @ r0)
-        alpha, best = 1.0, None
-        for _ in range(opt.max_line_search + 3):
-            trial = u.copy()
-            trial[m.free] += alpha * d
-            ev = self.evaluate(trial, load)
-            if not ev.ok:
-                if best is not None:
-                    break
+        if volume is not None and abs(ev.cavity_volume_mm3 - volume) > volume_tol:
+            return None
+        d, dp, _ = self._direction(ev, volume)
+        r = ev.residual[m.free]
+        if volume is not None:
+            r = r - dp * ev.volume_gradient[m.free]
+        decrement = abs(float(d @ r))
+        log.debug("    decrement %.2e of the work %.2e, next correction %.3g mm",
+                  decrement, work, float(np.max(np.abs(d))))
+        if decrement > opt.energy_rtol * work:
+            return None
+        for _ in range(3):  # polish with the same factorisation (modified Newton)
+            u2 = self._moved(u, d)
+            ev2 = self.evaluate(u2, replace(load, pressure_mpa=p + dp))
+            if not ev2.ok or (np.linalg.norm(ev2.residual[m.free])
+                              >= np.linalg.norm(ev.residual[m.free])):
+                break
+            u, p, ev = u2, p + dp, ev2
+            if np.linalg.norm(ev.residual[m.free]) <= self.tolerance(ev):
+                break
+            d, dp, _ = self._direction(ev, volume)
+        return u, p, ev
+
+    def _direction(self, ev: Evaluation, volume: float | None
+                   ) -> tuple[np.ndarray, float, np.ndarray | None]:
+        """Newton step ``(du, dp, a)`` from the current factorisation (``a = K^-1 g``)."""
+        m = self.model
+        b = -self.back_solve(ev.residual[m.free])
+        if volume is None:
+            return b, 0.0, None
+        g = ev.volume_gradient[m.free]
+        a = self.back_solve(g)
+        dp = -(ev.cavity_volume_mm3 - volume + float(g @ b)) / float(g @ a)
+        return b + dp * a, dp, a
+
+    def _step(self, u: np.ndarray, p: float, ev: Evaluation, volume: float | None,
+              load: Load, guarded: bool = False) -> _Point | None:
+        """Direction, then merit line search with a second-order correction; ``guarded``:
+        the full step unless it inverts elements (then halved)."""
+        m, opt = self.model, self.options
+        d, dp, a = self._direction(ev, volume)
+        p_new = p + dp
+        r0 = ev.residual[m.free]
+        merit0 = ev.energy  # Pi is affine in p: Pi(u; p_new) = Pi(u; p) - dp V(u)
+        slope, c0, c_tol = float(d @ r0), 0.0, 0.0
+        if volume is not None:
+            g = ev.volume_gradient[m.free]
+            r0 = r0 - dp * g  # the residual at u under the new pressure
+            c = ev.cavity_volume_mm3 - volume
+            c0, c_tol = abs(c), opt.volume_rtol * abs(volume)
+            ga = abs(float(g @ a))
+            self._rho = max(self._rho, 2.0 / ga)
+            slope = float(d @ r0) - self._rho * c * c
+            while slope >= 0 and self._rho < 1e12 / ga:
+                self._rho *= 10.0
+                slope = float(d @ r0) - self._rho * c * c
+            merit0 += -dp * ev.cavity_volume_mm3 + p_new * volume + 0.5 * self._rho * c * c
+        rn0 = float(np.linalg.norm(r0))
+        noise = 1e-11 * (abs(merit0) + 1.0)
+        big = float(np.max(np.abs(d))) if d.size else 0.0
+        if log.isEnabledFor(logging.DEBUG):
+            where = m.X[m.free[int(np.argmax(np.abs(d)))] // 3]
+            log.debug("    direction: max |d| %.3g mm at (%.1f, %.1f, %.1f), negative pivots %d",
+                      big, *where, self.linear.negative_pivots)
+
+        def at(x: np.ndarray, pp: float, alpha: float, how: str) -> _Point:
+            e = self.evaluate(x, replace(load, pressure_mpa=pp))
+            if not e.ok:
+                self.inverted = e.inverted  # the last (smallest) step that inverted
+            return _Point(x, pp, e, self._merit(e, pp, volume) if e.ok else np.inf, how, alpha)
+
+        def accept(pt: _Point) -> bool:
+            """Sufficient decrease of the merit, or of the residual (Newton's own
+            measure, which also holds where the merit is only nearly the potential)."""
+            if not pt.ev.ok:
+                return False
+            if pt.merit <= merit0 + opt.armijo * pt.alpha * slope + noise:
+                return True
+            cv = abs(pt.ev.cavity_volume_mm3 - volume) if volume is not None else 0.0
+            return (float(np.linalg.norm(pt.ev.residual[m.free])) <= 0.5 * rn0
+                    and cv <= max(0.5 * c0, c_tol))
+
+        alpha = min(1.0, opt.max_correction * self.span / big) if big > 0 else 1.0
+        trial = at(self._moved(u, alpha * d), p_new, alpha, "full step")
+        if slope >= 0 or guarded:  # not a descent direction, or crawling: guarded steps
+            for _ in range(opt.max_line_search):
+                if trial.ev.ok:
+                    return trial
                 alpha *= 0.5
-                continue
-            best = (trial, ev, alpha)
-            if not slope or g0 >= 0:
-                break
-            g = float(d @ ev.residual[m.free])
-            if g <= 0 or abs(g) <= opt.line_search_eta * abs(g0) or alpha < 0.05:
-                break
-            alpha *= min(max(g0 / (g0 - g), 0.2), 0.9)
-        if best is None:
-            return u, None, 0.0
-        return best
+                trial = at(self._moved(u, alpha * d), p_new, alpha, f"guarded x{alpha:.3g}")
+            return None
+        if accept(trial):
+            return trial
+        if trial.ev.ok:  # second-order correction with the same factorisation
+            d2, dp2, _ = self._direction(trial.ev, volume)
+            if float(np.max(np.abs(d2))) <= alpha * big:  # a correction, not a new step
+                self.stats.corrections += 1
+                corrected = at(self._moved(trial.u, d2), p_new + dp2, alpha, "corrected")
+                if accept(corrected):
+                    return corrected
+        best = trial if trial.ev.ok else None
+        for _ in range(opt.max_line_search):
+            if trial.ev.ok:  # minimiser of the parabola through merit(0), slope, merit(alpha)
+                denom = trial.merit - merit0 - slope * alpha
+                guess = -slope * alpha * alpha / (2.0 * denom) if denom > 0 else 0.5 * alpha
+                alpha = min(max(guess, 0.1 * alpha), 0.5 * alpha)
+            else:
+                alpha *= 0.25
+            trial = at(self._moved(u, alpha * d), p_new, alpha, f"alpha {alpha:.3g}")
+            if accept(trial):
+                return trial
+            if trial.ev.ok and (best is None or trial.merit < best.merit):
+                best = trial
+        return best if best is not None and best.merit < merit0 else None
 
+    def _update_stresses(self, u: np.ndarray, step: _Point, mixed: Stresses) -> Stresses:
+        """The mixed stresses after a step of ``alpha`` times the Newton step: the Hellinger-
+        Reissner update ``s + alpha (S(u) + C:B d - s)``, i.e. the stresses linearised along
+        the step taken, less ``(1 - alpha)`` of the gap between ``S(u)`` and ``s``. A full
+        step gives ``S(u) + C:B d``; a short one keeps the predicted stresses, instead of
+        the spurious ones of a poorly predicted ``u``."""
+        m = self.model
+        along = m.stresses(u, step.u - u)
+        if step.alpha >= 1.0:
+            return along
+        here = m.stresses(u)
+        keep = 1.0 - step.alpha
+        return along.combine([1.0, -keep, keep], [along, here, mixed])
 
-def _predict(history: list[tuple[float, np.ndarray]], t_new: float, order: int
-             ) -> np.ndarray:
-    """Lagrange extrapolation of the last ``order + 1`` converged states to ``t_new``.
-
-    On an fPN body from 0 to 5 kPa (41k unknowns) orders 1/2/3/4 needed 134/95/72/57
-    factorisations: points move on arcs as the actuator curls, and a higher-order
-    prediction leaves a smaller spurious volume change for Newton to remove.
-    """
-    pts = history[-(order + 1):]
-    out = np.zeros_like(pts[-1][1])
-    for i, (ti, ui) in enumerate(pts):
-        w = 1.0
-        for j, (tj, _) in enumerate(pts):
-            if j != i:
-                w *= (t_new - tj) / (ti - tj)
-        out += w * ui
-    return out
-
-
-def continuation(newton: Newton, u: np.ndarray, load_at: Callable[[float], Load],
-                 t0: float, t1: float, first: float, max_step: float,
-                 on_step: Callable[[float, np.ndarray, Evaluation], tuple[bool, float]],
-                 targets: Sequence[float] | None = None, what: str = "pressure",
-                 unit: str = "kPa") -> tuple[float, np.ndarray]:
-    """March ``t`` from ``t0`` (``u`` converged there) to ``t1``.
-
-    ``on_step(t, u, ev)`` -> (stop, largest next increment). Returns the last converged
-    ``(t, u)``. With ``targets``, increments land on each target exactly and ``on_step``
-    is called only there.
-    """
-    opt, stats = newton.options, newton.stats
-    t, dt, cuts, limit = t0, first, 0, max_step
-    history = [(t0, u)]
-    eps = 1e-12 * max(1.0, abs(t1))
-    stops = sorted(set(targets or ()) | {t1})
-    while t < t1 - eps:
-        nxt = next(s for s in stops if s > t + eps)
-        dt = min(dt, limit, max_step)
-        t_new = nxt if nxt - (t + dt) < 0.1 * dt else t + dt
-        if len(history) > 1:
-            res = newton.solve(_predict(history, t_new, opt.predictor_order), load_at(t_new))
-            if not res.converged and res.oversize == 0.0:  # the predictor may overshoot
-                res = newton.solve(u, load_at(t_new), tangent_load=load_at(t))
-        else:
-            res = newton.solve(u, load_at(t_new), tangent_load=load_at(t))
-        if not res.converged:
-            if t_new - t < 1e-3 * first:
-                raise SolveError(
-                    f"{what} increment to {t_new:.4g} {unit} stalled below {1e-3 * first:.3g} {unit}; "
-                    f"last converged {what} {t:.4g} {unit}", last_converged=t, residuals=res.residuals)
-            cuts += 1
-            stats.cuts += 1
-            log.info("%s %.4g %s: Newton failed (residuals %s); cutting the step", what,
-                     t_new, unit, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
-            if cuts > opt.max_cuts:
-                raise SolveError(
-                    f"{what} increment to {t_new:.4g} {unit} failed after {cuts - 1} cuts; "
-                    f"last converged {what} {t:.4g} {unit}", last_converged=t,
-                    residuals=res.residuals)
-            shrink = 0.5 if res.oversize <= 1.0 else min(0.5, 0.8 / res.oversize)
-            dt = (t_new - t) * shrink
-            continue
-        stats.increments += 1
-        its = max(stats.newton_iterations[-1], 1)
-        log.debug("%s %.4g %s converged in %d iterations", what, t_new, unit, its)
-        step, t, u, cuts = t_new - t, t_new, res.u, 0
-        history = (history + [(t, u)])[-(opt.predictor_order + 1):]
-        dt = step * min(max(opt.target_iterations / its, 0.5), opt.growth)
-        if targets is None or any(abs(t - s) <= eps for s in stops):
-            stop, limit = on_step(t, u, res.evaluation)
-            if stop:
-                break
-    return t, u
+    def _moved(self, u: np.ndarray, d: np.ndarray) -> np.ndarray:
+        out = u.copy()
+        out[self.model.free] += d
+        return out

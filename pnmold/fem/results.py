@@ -44,6 +44,26 @@ class Step:
         return d
 
 
+@dataclass(frozen=True)
+class PressureMaximum:
+    """The highest pressure along a volume-controlled curve (a limit point): past it the
+    actuator inflates further at a falling pressure, so under a pressure regulator it
+    would snap; a syringe follows it."""
+
+    pressure_kpa: float
+    bend_angle_deg: float
+    cavity_volume_ml: float
+
+    def describe(self) -> str:
+        return (f"pressure maximum of {self.pressure_kpa:.4g} kPa at {self.bend_angle_deg:.1f} deg "
+                f"bend and {self.cavity_volume_ml:.4g} mL")
+
+
+#: why a curve ended: the physical stops, and a solver failure
+STOPS = ("full_bend", "pressure_limit", "pressure_maximum", "stretch_limit", "targets",
+         "failed")
+
+
 @dataclass(frozen=True, eq=False)
 class Solution:
     """A pressure curve.
@@ -59,6 +79,8 @@ class Solution:
     states : the full P2 displacement vector (mm) at every step, node-major ``3 s + c`` in the
         numbering of scikit-fem's ``ElementTetP2`` on ``MeshTet(mesh.nodes_mm.T, mesh.tets.T)``
         (vertices first, then edge nodes), for field output (:mod:`pnmold.export`).
+    stop : why the curve ended, one of :data:`STOPS` ("failed" for a partial curve).
+    pressure_maximum : the pressure maximum met along the curve, or None.
     """
 
     steps: tuple[Step, ...]
@@ -68,6 +90,8 @@ class Solution:
     stats: dict = field(default_factory=dict)
     shapes_mm: tuple[np.ndarray, ...] = ()  # displacement of the mesh nodes at every step
     states: tuple[np.ndarray, ...] = ()  # the full P2 displacement vector at every step
+    stop: str = "full_bend"
+    pressure_maximum: PressureMaximum | None = None
 
     @property
     def max_pressure_kpa(self) -> float:

@@ -2,9 +2,11 @@
 
 Supports: zero displacement of every P2 node on the ``clamp`` facets; ``u_y = 0`` on the
 ``symmetry`` facets of a half model (``mesh.half``). Gravity (a dead load from the
-density) is ramped first as its own stage, then the cavity pressure from 0 kPa with
-adaptive increments (:func:`.newton.continuation`). Blocked force (supplement Fig. S6):
-a rigid frictionless plane ``z = tip_z - gap`` under the tip, enforced by a penalty on the
+density) is ramped first as its own stage by load control, then the cavity is inflated
+by volume control from 0 kPa (:mod:`.path`): the curve ends at full bend, at the pressure
+limit, at a pressure maximum (reported, not a failure) or where the largest principal
+stretch passes the material's stretch at break. Blocked force (supplement Fig. S6): a
+rigid frictionless plane ``z = tip_z - gap`` under the tip, enforced by a penalty on the
 ``free_end`` nodes; the plane's total reaction is ``Step.force_n``.
 """
 
@@ -13,7 +15,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,10 +23,12 @@ import numpy as np
 from ..conventions import FULL_BEND_DEG
 from ..errors import DesignError, SolveError
 from ..tetmesh import CLAMP, SYMMETRY, TetMesh
+from . import failure
 from .material import Membrane, Yeoh
 from .model import Load, Model
-from .newton import Newton, NewtonOptions, continuation
-from .results import Observer, Solution, Step, full_bend_pressure
+from .newton import Newton, NewtonOptions
+from .path import Control, PathFailure, State, inflate, ramp
+from .results import Observer, PressureMaximum, Solution, Step, full_bend_pressure
 
 log = logging.getLogger(__name__)
 
@@ -39,22 +43,37 @@ class SolveOptions:
 
     Parameters
     ----------
-    first_step_kpa : the first pressure increment (the stiffest-to-solve one).
+    first_step_kpa : the first pressure increment; None: the one whose tangent
+        prediction bends ``first_angle_step_deg``.
     max_step_kpa : largest pressure increment.
     max_angle_step_deg : increments are shrunk so the bend angle moves at most this much.
+    first_angle_step_deg : bend of the first increment of each stage (from its tangent).
     stop_at_full_bend : stop once the bend angle reaches 360 degrees (free bending).
-    gravity_first_step : first increment of the gravity factor (0 -> 1).
+    past_pressure_maximum : keep inflating past a pressure maximum (a syringe's curve,
+        the pressure then falls) instead of ending the curve there.
+    max_stretch : end the curve once the largest principal stretch exceeds this (e.g.
+        1 + the elongation at break); None: the material's ``stretch_at_break``.
+    gravity_first_step : first increment of the gravity factor (0 -> 1); None: from
+        the tangent.
     contact_stiffness_n_per_mm : penalty stiffness per node of the blocking plane.
     newton : Newton tolerances and step growth/cut control.
     """
 
-    first_step_kpa: float = 0.25
+    first_step_kpa: float | None = None
     max_step_kpa: float = 12.0
     max_angle_step_deg: float = 40.0
+    first_angle_step_deg: float = 8.0
     stop_at_full_bend: bool = True
-    gravity_first_step: float = 0.25
+    past_pressure_maximum: bool = False
+    max_stretch: float | None = None
+    gravity_first_step: float | None = None
     contact_stiffness_n_per_mm: float = 50.0
     newton: NewtonOptions = field(default_factory=NewtonOptions)
+
+    def control(self) -> Control:
+        return Control(first_angle_deg=self.first_angle_step_deg,
+                       max_angle_deg=self.max_angle_step_deg,
+                       max_pressure_step_mpa=self.max_step_kpa / 1000.0)
 
 
 def _pressures(max_pressure_kpa: float | None,
@@ -71,83 +90,175 @@ def _pressures(max_pressure_kpa: float | None,
     return float(max_pressure_kpa), None
 
 
-def _clamped(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, gravity: Sequence[float] | None,
-             options: SolveOptions) -> tuple[Model, Newton, np.ndarray]:
-    """The clamped (and, for a half model, symmetric) model, its Newton solver and the
-    gravity force density (N/mm^3)."""
-    fixed = {CLAMP: (0, 1, 2)}
-    if mesh.half:
-        fixed[SYMMETRY] = (1,)
-    model = Model(mesh, material, membrane, fixed)
-    gvec = np.zeros(3) if gravity is None else material.weight_density_n_per_mm3 * np.asarray(gravity, float)
-    return model, Newton(model, options.newton), gvec
+class _Setup:
+    """The clamped (and, for a half model, symmetric) model, its Newton solver, its
+    observer and the loads of one curve."""
+
+    def __init__(self, mesh: TetMesh, material: Yeoh, membrane: Membrane | None,
+                 gravity: Sequence[float] | None, plane_z_mm: float | None,
+                 options: SolveOptions, regions: Mapping[str, Yeoh] | None):
+        fixed = {CLAMP: (0, 1, 2)}
+        if mesh.half:
+            fixed[SYMMETRY] = (1,)
+        self.model = Model(mesh, material, membrane, fixed, regions=regions)
+        self.newton = Newton(self.model, options.newton)
+        self.observer = Observer(self.model)
+        self.options = options
+        self.plane = plane_z_mm
+        self.gvec = (np.zeros(3) if gravity is None
+                     else material.weight_density_n_per_mm3 * np.asarray(gravity, float))
+        weight = self.model.gravity_vector(self.gvec)[self.model.free]
+        self.newton.reference_force = float(np.linalg.norm(weight))
+
+    def load(self, p_mpa: float, g: float = 1.0) -> Load:
+        return Load(p_mpa, tuple(g * self.gvec), self.plane,
+                    self.options.contact_stiffness_n_per_mm)
+
+    def angle(self, u: np.ndarray) -> float:
+        """Unwrapped bend angle (degrees), tracked along the path."""
+        return math.degrees(self.observer.bend_angle(u))
+
+    def rest(self) -> State:
+        u = np.zeros(self.model.ndof)
+        return State(0.0, u, 0.0, self.newton.evaluate(u, self.load(0.0, 0.0)))
+
+    def gravity(self, start: State) -> State:
+        """Ramp the weight from 0 to 1 g (load control); logs each increment."""
+        if not np.any(self.gvec):
+            return start
+        opt = self.options
+        n0 = self.newton.stats.factorizations
+        control = Control(first_angle_deg=opt.first_angle_step_deg,
+                          max_angle_deg=opt.max_angle_step_deg)
+        end = ramp(self.newton, start, lambda g: self.load(0.0, g), 1.0, self.angle,
+                   lambda s: (False, 0.0), control, what="gravity", unit="g",
+                   first_step=opt.gravity_first_step)
+        self.newton.stats.stage_factorizations["gravity"] = self.newton.stats.factorizations - n0
+        return State(0.0, end.u, 0.0, end.ev, end.stresses)
+
+    def error(self, stage: str, fail: PathFailure, unit_load: str,
+              partial: Solution | None, last: float | None) -> SolveError:
+        res = fail.result
+        region = failure.locate(self.model, res.u if res else fail.last.u,
+                                res.evaluation.residual if res and res.evaluation.ok else None,
+                                self.newton.inverted)
+        text = failure.message(stage, unit_load, fail.why, region)
+        return SolveError(text, last_converged=last, residuals=res.residuals if res else [],
+                          stage=stage, region=region, hint=failure.HINTS[stage], partial=partial)
+
+    def stats(self, t_start: float) -> dict:
+        stats = self.newton.stats.as_dict()
+        stats.update(unknowns=int(self.model.free.size), tets=int(self.model.edofs.shape[0]),
+                     total_s=time.perf_counter() - t_start)
+        return stats
 
 
 def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float,
            targets: list[float] | None, gravity: Sequence[float] | None,
-           plane_gap_mm: float | None, options: SolveOptions) -> Solution:
+           plane_gap_mm: float | None, options: SolveOptions,
+           regions: Mapping[str, Yeoh] | None) -> Solution:
     t_start = time.perf_counter()
-    model, newton, gvec = _clamped(mesh, material, membrane, gravity, options)
-    observer = Observer(model)
     blocked = plane_gap_mm is not None
     plane = mesh.tip_mm[2] - plane_gap_mm if blocked else None
+    setup = _Setup(mesh, material, membrane, gravity, plane, options, regions)
+    stage = "blocked force" if blocked else "pressure"
+    max_stretch = options.max_stretch or material.stretch_at_break
+    steps: list[Step] = []
+    shapes: list[np.ndarray] = []
+    states: list[np.ndarray] = []
+    found: dict[str, object] = {}
 
-    def load(p_kpa: float, g: float = 1.0) -> Load:
-        return Load(p_kpa / 1000.0, tuple(g * gvec), plane,
-                    options.contact_stiffness_n_per_mm)
+    def report(state: State) -> tuple[bool, float]:
+        step = setup.observer.step(1000.0 * state.p, state.u, state.ev, blocked)
+        steps.append(step)
+        shapes.append(state.u.reshape(-1, 3)[:mesh.n_nodes].copy())
+        states.append(state.u.copy())
+        log.info("%.4g kPa: angle %.1f deg, tip (%.2f, %.2f) mm, volume %.4g mL%s",
+                 step.pressure_kpa, step.bend_angle_deg, step.tip_x_mm, step.tip_z_mm,
+                 step.cavity_volume_ml, f", force {step.force_n:.3g} N" if blocked else "")
+        if max_stretch is not None and step.max_principal_stretch > max_stretch:
+            found["stretch"] = step
+            return True, step.bend_angle_deg
+        full = options.stop_at_full_bend and not blocked and step.bend_angle_deg >= FULL_BEND_DEG
+        return full, step.bend_angle_deg
+
+    def at_maximum(state: State) -> None:
+        step = setup.observer.step(1000.0 * state.p, state.u, state.ev, blocked)
+        found["maximum"] = PressureMaximum(step.pressure_kpa, step.bend_angle_deg,
+                                           step.cavity_volume_ml)
+
+    def partial(reason: str) -> Solution:
+        return Solution(tuple(steps), shapes[-1] if shapes else np.zeros((mesh.n_nodes, 3)),
+                        None, reason, setup.stats(t_start), tuple(shapes), tuple(states),
+                        "failed", found.get("maximum"))
 
     try:
-        u = np.zeros(model.ndof)
-        if gravity is not None and np.any(gvec):
-            _, u = continuation(newton, u, lambda g: load(0.0, g), 0.0, 1.0,
-                                options.gravity_first_step, 1.0, lambda *a: (False, math.inf),
-                                what="gravity factor", unit="g")
-        steps: list[Step] = [observer.step(0.0, u, newton.evaluate(u, load(0.0)), blocked)]
-        shapes: list[np.ndarray] = [u.reshape(-1, 3)[:mesh.n_nodes].copy()]
-        states: list[np.ndarray] = [u.copy()]
-
-        def on_step(p: float, u_new: np.ndarray, ev) -> tuple[bool, float]:
-            step = observer.step(p, u_new, ev, blocked)
-            prev = steps[-1]
-            steps.append(step)
-            shapes.append(u_new.reshape(-1, 3)[:mesh.n_nodes].copy())
-            states.append(u_new.copy())
-            log.info("%.3g kPa: angle %.1f deg, tip (%.2f, %.2f) mm%s", p, step.bend_angle_deg,
-                     step.tip_x_mm, step.tip_z_mm,
-                     f", force {step.force_n:.3g} N" if blocked else "")
-            dangle = abs(step.bend_angle_deg - prev.bend_angle_deg)
-            limit = math.inf
-            if dangle > 0 and not blocked:
-                limit = (p - prev.pressure_kpa) * options.max_angle_step_deg / dangle
-            stop = (options.stop_at_full_bend and not blocked
-                    and step.bend_angle_deg >= FULL_BEND_DEG)
-            return stop, max(limit, options.first_step_kpa / 4)
-
+        state = setup.rest()
         try:
-            _, u = continuation(newton, u, load, 0.0, pmax, options.first_step_kpa,
-                                options.max_step_kpa, on_step, targets=targets)
-        except SolveError as err:
-            # keep what converged: the caller may report the curve up to the failure
-            err.partial = Solution(tuple(steps), shapes[-1], None, str(err),
-                                   newton.stats.as_dict(), tuple(shapes), tuple(states))
-            raise
+            state = setup.gravity(state)
+        except PathFailure as fail:
+            err = setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
+                              "(no pressure yet)", None, 0.0)
+            err.partial = partial(str(err))
+            raise err from None
+        report(State(state.t, state.u, 0.0, state.ev, state.stresses))
+        n0 = setup.newton.stats.factorizations
+        try:
+            _, why = inflate(setup.newton, state, setup.load, setup.angle, report,
+                             options.control(), p_limit=pmax / 1000.0,
+                             targets=[p / 1000.0 for p in targets] if targets else None,
+                             past_maximum=options.past_pressure_maximum, on_maximum=at_maximum)
+        except PathFailure as fail:
+            last = steps[-1].pressure_kpa if steps else 0.0
+            err = setup.error(stage, fail, f"{1000.0 * fail.last.p:.4g} kPa (last converged; "
+                              f"bend {steps[-1].bend_angle_deg:.1f} deg)", None, last)
+            err.args = (f"{err.args[0]}; last converged pressure {last:.4g} kPa",)
+            err.partial = partial(str(err))
+            raise err from None
+        setup.newton.stats.stage_factorizations[stage] = setup.newton.stats.factorizations - n0
     finally:
-        newton.linear.release()
+        setup.newton.linear.release()
+    stop, reason, fb = _stop(why, steps, found, blocked, max_stretch)
+    stats = setup.stats(t_start)
+    log.info("curve: %d unknowns, %d increments, %d factorisations (%s), %.1f s; %s",
+             stats["unknowns"], stats["increments"], stats["factorizations"],
+             ", ".join(f"{k} {v}" for k, v in stats["stage_factorizations"].items()),
+             stats["total_s"], reason or "full bend")
+    displacement = shapes[-1]
+    return Solution(tuple(steps), displacement, fb, reason, stats, tuple(shapes), tuple(states),
+                    stop, found.get("maximum"))
+
+
+def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
+          max_stretch: float | None) -> tuple[str, str | None, float | None]:
+    """(stop, reason, full-bend pressure) of a finished curve."""
     fb, reason = (None, "blocked-force curve") if blocked else full_bend_pressure(steps)
-    stats = newton.stats.as_dict()
-    stats.update(unknowns=int(model.free.size), tets=int(model.edofs.shape[0]),
-                 total_s=time.perf_counter() - t_start)
-    log.info("curve: %d unknowns, %d increments, %d factorisations, %.1f s", model.free.size,
-             stats["increments"], stats["factorizations"], stats["total_s"])
-    displacement = u.reshape(-1, 3)[:mesh.n_nodes].copy()
-    return Solution(tuple(steps), displacement, fb, reason, stats, tuple(shapes), tuple(states))
+    if "stretch" in found:
+        s = found["stretch"]
+        x, y, z = s.max_stretch_at_mm
+        return "stretch_limit", (
+            f"the largest principal stretch {s.max_principal_stretch:.3g} at ({x:.1f}, {y:.1f}, "
+            f"{z:.1f}) mm passed the material's stretch at break {max_stretch:.3g} at "
+            f"{s.pressure_kpa:.4g} kPa and {s.bend_angle_deg:.1f} deg"), fb
+    if why == "pressure_maximum":
+        return "pressure_maximum", (f"{found['maximum'].describe()}: past it the actuator "
+                                    "inflates at a falling pressure (it snaps under a "
+                                    "pressure regulator); the curve ends there"), fb
+    if fb is not None:
+        return "full_bend", None, fb
+    if why == "pressure_limit":
+        last = steps[-1]
+        return "pressure_limit", (f"bend angle reached {last.bend_angle_deg:.1f} deg at the "
+                                  f"pressure limit {last.pressure_kpa:.4g} kPa"), fb
+    return ("targets" if why == "targets" else "full_bend"), reason, fb
 
 
 def solve_bending(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
                   membrane: Membrane | None = PAPER, *, max_pressure_kpa: float | None = None,
                   pressures_kpa: Sequence[float] | None = None,
                   gravity: Sequence[float] | None = None,
-                  options: SolveOptions | None = None) -> Solution:
+                  options: SolveOptions | None = None,
+                  regions: Mapping[str, Yeoh] | None = None) -> Solution:
     """Free bending of a clamped actuator under cavity pressure.
 
     Parameters
@@ -163,15 +274,24 @@ def solve_bending(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
     gravity : gravitational acceleration in units of g in the actuator frame, e.g.
         ``(0, 0, -1)`` chambers up; None for no gravity.
     options : load stepping and Newton options.
+    regions : element-set name -> its rubber where it is not ``material`` (e.g. the
+        ``bottom_layer`` cast in another silicone).
+
+    Returns
+    -------
+    Solution : the steps up to full bend or another named stop (``Solution.stop``:
+        ``full_bend``, ``pressure_limit``, ``pressure_maximum``, ``stretch_limit``,
+        ``targets``); ``reason`` says in words why a curve ended short of full bend.
 
     Raises
     ------
-    SolveError : an increment failed after the allowed cuts; names the last converged
-        pressure (``last_converged``, kPa) and keeps the residual history.
+    SolveError : an increment failed after the allowed cuts; names the stage, the last
+        converged pressure (``last_converged``, kPa), the region and what to try, keeps
+        the residual history, and carries the curve up to the failure (``partial``).
     """
     pmax, targets = _pressures(max_pressure_kpa, pressures_kpa)
     return _curve(mesh, material, membrane, pmax, targets, gravity, None,
-                  options or SolveOptions())
+                  options or SolveOptions(), regions)
 
 
 def solve_blocked_force(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
@@ -179,7 +299,8 @@ def solve_blocked_force(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
                         max_pressure_kpa: float | None = None,
                         pressures_kpa: Sequence[float] | None = None, gap_mm: float = 0.0,
                         gravity: Sequence[float] | None = None,
-                        options: SolveOptions | None = None) -> Solution:
+                        options: SolveOptions | None = None,
+                        regions: Mapping[str, Yeoh] | None = None) -> Solution:
     """Blocked tip force against a rigid frictionless plane ``z = tip_z - gap_mm``.
 
     Same parameters as :func:`solve_bending`; ``Step.force_n`` is the plane's reaction
@@ -189,7 +310,7 @@ def solve_blocked_force(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
     if gap_mm < 0:
         raise DesignError("gap_mm", f"must be >= 0, got {gap_mm}")
     return _curve(mesh, material, membrane, pmax, targets, gravity, float(gap_mm),
-                  options or SolveOptions())
+                  options or SolveOptions(), regions)
 
 
 @dataclass(frozen=True)
@@ -214,7 +335,8 @@ class BlockedSlope:
 def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
                         membrane: Membrane | None = PAPER, *, gap_mm: float = 0.0,
                         gravity: Sequence[float] | None = None,
-                        options: SolveOptions | None = None) -> BlockedSlope:
+                        options: SolveOptions | None = None,
+                        regions: Mapping[str, Yeoh] | None = None) -> BlockedSlope:
     """:class:`BlockedSlope` of a clamped actuator against the plane ``z = tip_z - gap_mm``.
 
     The pressure's load vector at the rest state, dR/dp (follower pressure on the
@@ -226,23 +348,20 @@ def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
     if gap_mm < 0:
         raise DesignError("gap_mm", f"must be >= 0, got {gap_mm}")
     t_start = time.perf_counter()
-    model, newton, gvec = _clamped(mesh, material, membrane, gravity, options)
     plane = mesh.tip_mm[2] - gap_mm
+    setup = _Setup(mesh, material, membrane, gravity, plane, options, regions)
+    model, newton = setup.model, setup.newton
     k = options.contact_stiffness_n_per_mm
-
-    def load(p_kpa: float, g: float = 1.0) -> Load:
-        return Load(p_kpa / 1000.0, tuple(g * gvec), plane, k)
-
     try:
-        u = np.zeros(model.ndof)
-        if np.any(gvec):
-            _, u = continuation(newton, u, lambda g: load(0.0, g), 0.0, 1.0, options.gravity_first_step,
-                                1.0, lambda *a: (False, math.inf), what="gravity factor", unit="g")
-        rest = newton.evaluate(u, load(0.0), want_k=True)
-        unit = newton.evaluate(u, load(1.0))  # 1 kPa more, same geometry
-        newton.linear.factor(rest.matrix)
+        try:
+            u = setup.gravity(setup.rest()).u
+        except PathFailure as fail:
+            raise setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
+                              "(the actuator resting on the blocking plane)", None, 0.0) from None
+        rest = newton.factor(u, setup.load(0.0))
+        unit = newton.evaluate(u, setup.load(0.001))  # 1 kPa more, same geometry
         du = np.zeros(model.ndof)
-        du[model.free] = -newton.linear.solve((unit.residual - rest.residual)[model.free])
+        du[model.free] = -newton.back_solve((unit.residual - rest.residual)[model.free])
     finally:
         newton.linear.release()
     zdofs = 3 * model.contact_nodes + 2

@@ -1,0 +1,374 @@
+"""Path following: a load ramped by load control, the pressure by cavity-volume control.
+
+Why volume control for the pressure (rather than arc-length on the pressure): the cavity
+volume is what a syringe pump prescribes (the supplement's P-V test), it is one physical
+scalar (no mixing of displacement and pressure units in an arc-length norm, no choice
+between two roots), and it is monotone along the equilibrium path wherever the actuator
+is stable under a syringe, which includes the states past a pressure maximum where
+pressure control has no nearby solution (a ballooning wall, a snap). The pressure is an
+unknown of the bordered Newton system (:mod:`.newton`); a pressure maximum shows as the
+pressure falling from one converged volume to the next, and is located and reported,
+not mistaken for a failure. Requested pressures are landed on exactly by a pressure-
+controlled solve from an interpolated predictor.
+
+Step control: the first increment comes from the tangent at the start (``first_angle_deg``
+of predicted bend, at most ``first_move`` of the body's size), later ones grow or shrink
+with the factorisations an increment took (``target_iterations``) and are limited by
+``max_angle_deg`` of bend. Predictors extrapolate the last converged states (Lagrange,
+``predictor_order``): points move on arcs as the actuator curls, and a higher-order
+prediction leaves Newton a smaller spurious stretch to remove. A failed increment is
+halved; ``max_cuts`` halvings in a row end the stage with :class:`PathFailure`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import Evaluation, Load, Stresses
+from .newton import Newton, NewtonResult
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class State:
+    """A converged state: path parameter ``t``, displacement, pressure (MPa), evaluation
+    and its stresses (for the mixed Newton's predicted tangent)."""
+
+    t: float
+    u: np.ndarray
+    p: float
+    ev: Evaluation
+    stresses: Stresses | None = None
+
+
+@dataclass(frozen=True)
+class Control:
+    """Step control of one stage (``t`` in the stage's own unit)."""
+
+    first_angle_deg: float = 8.0
+    first_move: float = 0.03
+    max_angle_deg: float = 40.0
+    max_step: float = math.inf
+    max_pressure_step_mpa: float = math.inf
+
+
+class PathFailure(Exception):
+    """An increment failed after the allowed cuts; ``last`` is the last converged state."""
+
+    def __init__(self, what: str, last: State, target: float, result: NewtonResult | None,
+                 why: str):
+        self.what, self.last, self.target, self.result, self.why = what, last, target, result, why
+        super().__init__(why)
+
+
+#: on_step(state) -> (stop, bend angle in degrees); ``stop`` ends the stage there.
+OnStep = Callable[[State], tuple[bool, float]]
+
+
+def extrapolate(history: Sequence[State], t_new: float, order: int
+                ) -> tuple[np.ndarray, float, Stresses | None]:
+    """Lagrange extrapolation (or interpolation) of ``(u, p, stresses)`` to ``t_new``
+    through the last ``order + 1`` states."""
+    pts = list(history[-(order + 1):])
+    weights = []
+    for i, si in enumerate(pts):
+        w = 1.0
+        for j, sj in enumerate(pts):
+            if j != i:
+                w *= (t_new - sj.t) / (si.t - sj.t)
+        weights.append(w)
+    u = sum(w * s.u for w, s in zip(weights, pts, strict=True))
+    p = float(sum(w * s.p for w, s in zip(weights, pts, strict=True)))
+    stresses = None
+    if all(s.stresses is not None for s in pts):
+        stresses = pts[-1].stresses.combine(weights, [s.stresses for s in pts])
+    return u, p, stresses
+
+
+def _first_step(newton: Newton, rate_u: np.ndarray, angle: Callable[[np.ndarray], float],
+                start: State, control: Control) -> float:
+    """The increment of ``t`` whose tangent prediction bends ``first_angle_deg`` and moves
+    no node more than ``first_move`` of the body's size."""
+    big = float(np.max(np.abs(rate_u))) if rate_u.size else 0.0
+    if big == 0.0:
+        return math.inf
+    probe = 0.01 * newton.span / big  # a small step: the angle's rate by difference
+    rate_angle = abs(angle(start.u + probe * rate_u) - angle(start.u)) / probe
+    dt = control.first_move * newton.span / big
+    if rate_angle > 0:
+        dt = min(dt, control.first_angle_deg / rate_angle)
+    return dt
+
+
+def _next_step(newton: Newton, dt: float, n_fact: int, dangle: float, dp: float,
+               control: Control) -> float:
+    opt = newton.options
+    grow = min(max(opt.target_iterations / max(n_fact, 1), 0.5), opt.growth)
+    out = dt * grow
+    if dangle > 1e-9:
+        out = min(out, dt * control.max_angle_deg / dangle)
+    if dp > 0 and math.isfinite(control.max_pressure_step_mpa):
+        out = min(out, dt * control.max_pressure_step_mpa / dp)
+    return min(out, control.max_step)
+
+
+def _tangent_load(newton: Newton, state: State, load: Load, rhs: np.ndarray) -> np.ndarray:
+    """``K^-1 rhs`` at ``state`` (one factorisation), full length."""
+    m = newton.model
+    newton.factor(state.u, load)
+    out = np.zeros(m.ndof)
+    out[m.free] = newton.back_solve(rhs[m.free])
+    return out
+
+
+def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: float,
+         angle: Callable[[np.ndarray], float], on_step: OnStep, control: Control,
+         targets: Sequence[float] | None = None, what: str = "load", unit: str = "",
+         first_step: float | None = None) -> State:
+    """Load control: march ``t`` from ``start.t`` to ``t_end`` (landing on ``targets``).
+
+    The load must be affine in ``t`` (dead loads, or a fixed-pressure ramp). ``on_step``
+    is called at every converged increment, or only at the targets when given;
+    ``first_step`` overrides the tangent's choice of the first increment.
+    """
+    opt = newton.options
+    t = start.t
+    stops = sorted({*(targets or ()), t_end})
+    eps = 1e-12 * max(1.0, abs(t_end))
+    load0, load1 = load_at(t), load_at(t + 1.0)
+    rate_rhs = -(newton.evaluate(start.u, load1).residual - newton.evaluate(start.u, load0).residual)
+    rate_u = _tangent_load(newton, start, load0, rate_rhs)
+    dt = first_step or _first_step(newton, rate_u, angle, start, control)
+    dt = min(dt, t_end - t)
+    history, state, cuts, last_angle = [start], start, 0, angle(start.u)
+    done = 0.0  # the work of the load so far (N mm), the scale of Newton's energy criterion
+    while t < t_end - eps:
+        nxt = next(s for s in stops if s > t + eps)
+        t_new = nxt if nxt - (t + dt) < 0.1 * dt else t + dt
+        if len(history) == 1:
+            u_pred, s_pred = state.u + (t_new - t) * rate_u, state.stresses
+        else:
+            u_pred, _, s_pred = extrapolate(history, t_new, opt.predictor_order)
+        work = done + abs(float((t_new - t) * rate_rhs @ (u_pred - state.u)))
+        res = newton.solve(u_pred, load_at(t_new), stresses=s_pred, work=work, strict=cuts < 2)
+        if not res.converged:
+            cuts += 1
+            newton.stats.cuts += 1
+            log.info("%s %.4g %s: Newton failed (%s; residuals %s); cutting the step", what,
+                     t_new, unit, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
+            if cuts > opt.max_cuts:
+                raise PathFailure(what, state, t_new, res, f"failed after {cuts - 1} cuts: {res.why}")
+            dt = 0.5 * (t_new - t)
+            continue
+        newton.stats.increments += 1
+        done += abs(float((t_new - t) * rate_rhs @ (res.u - state.u)))
+        step, t, cuts = t_new - t, t_new, 0
+        state = State(t, res.u, res.pressure_mpa, res.evaluation, res.stresses)
+        history = (history + [state])[-(opt.predictor_order + 1):]
+        bend = angle(state.u)
+        log.info("%s %.4g %s: bend %.1f deg, %d factorisations", what, t, unit, bend,
+                 res.factorizations)
+        dt = _next_step(newton, step, res.factorizations, abs(bend - last_angle), 0.0, control)
+        last_angle = bend
+        if targets is None or any(abs(t - s) <= eps for s in stops):
+            stop, _ = on_step(state)
+            if stop:
+                break
+    return state
+
+
+def continuation(newton: Newton, u: np.ndarray, load_at: Callable[[float], Load], t0: float,
+                 t1: float, first: float, max_step: float,
+                 on_step: Callable[[float, np.ndarray, Evaluation], tuple[bool, float]],
+                 targets: Sequence[float] | None = None, what: str = "load",
+                 unit: str = "") -> tuple[float, np.ndarray]:
+    """Load control from ``t0`` (``u`` converged there) to ``t1`` without a bend angle:
+    ``on_step(t, u, ev) -> (stop, unused)``; returns the last converged ``(t, u)``."""
+    start = State(t0, u, load_at(t0).pressure_mpa, newton.evaluate(u, load_at(t0)))
+
+    def report(state: State) -> tuple[bool, float]:
+        return on_step(state.t, state.u, state.ev)[0], 0.0
+
+    end = ramp(newton, start, load_at, t1, lambda _: 0.0, report, Control(max_step=max_step),
+               targets, what, unit, first_step=first)
+    return end.t, end.u
+
+
+def _pressure_at(history: Sequence[State], t: float, order: int) -> float:
+    pts = list(history[-(order + 1):])
+    p = 0.0
+    for i, si in enumerate(pts):
+        w = 1.0
+        for j, sj in enumerate(pts):
+            if j != i:
+                w *= (t - sj.t) / (si.t - sj.t)
+        p += w * si.p
+    return p
+
+
+def _interpolate_volume(history: Sequence[State], p_target: float, order: int) -> float:
+    """The volume between the last two states where the interpolated pressure is
+    ``p_target`` (bisection on the Lagrange interpolant; the pressure rises there)."""
+    lo, hi = history[-2].t, history[-1].t
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if _pressure_at(history, mid, order) < p_target:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def _peak(history: Sequence[State]) -> float:
+    """Volume of the pressure maximum: vertex of the parabola through the last three
+    (volume, pressure) points, kept inside their span."""
+    if len(history) < 3:
+        return history[-2].t
+    (t0, p0), (t1, p1), (t2, p2) = [(s.t, s.p) for s in history[-3:]]
+    d01, d12 = (p1 - p0) / (t1 - t0), (p2 - p1) / (t2 - t1)
+    curv = (d12 - d01) / (t2 - t0)
+    if curv >= 0:
+        return t1
+    vertex = 0.5 * (t0 + t1) - d01 / (2.0 * curv)
+    return min(max(vertex, t0), t2)
+
+
+def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
+            angle: Callable[[np.ndarray], float], on_step: OnStep, control: Control, *,
+            p_limit: float, targets: Sequence[float] | None = None,
+            past_maximum: bool = False,
+            on_maximum: Callable[[State], None] | None = None) -> tuple[State, str]:
+    """Volume control from ``start`` (pressure ``start.p``, MPa) until a stop.
+
+    ``load_at(p)`` is the load at pressure ``p`` (MPa). Every converged increment is
+    reported through ``on_step``, or only the ``targets`` (MPa) when given. Returns the
+    last reported state and why the stage ended: ``"pressure_limit"`` (``p_limit``
+    reached, landed on exactly), ``"targets"`` (the last target), ``"stopped"``
+    (``on_step`` asked) or ``"pressure_maximum"`` (the pressure fell: ``on_maximum``
+    gets the state at the maximum, which is then the last state unless
+    ``past_maximum``).
+    """
+    opt = newton.options
+    m = newton.model
+    first = State(start.ev.cavity_volume_mm3, start.u, start.p, start.ev, start.stresses)
+    newton.factor(first.u, load_at(first.p))
+    g = first.ev.volume_gradient[m.free]
+    a = newton.back_solve(g)
+    compliance = float(g @ a)  # dV/dp at the start
+    rate_u = np.zeros(m.ndof)
+    rate_u[m.free] = a / compliance
+    rate_p = 1.0 / compliance
+    dv = _first_step(newton, rate_u, angle, first, control)
+    if math.isfinite(control.max_pressure_step_mpa):
+        dv = min(dv, control.max_pressure_step_mpa * compliance)
+    pending = sorted({*(p for p in (targets or ()) if p > first.p), p_limit})
+    pending = [p for p in pending if p <= p_limit]
+    history, state, cuts = [first], first, 0
+    last_angle = angle(first.u)
+    peaked = False
+    done = 0.0  # the work of the pressure so far (N mm), the scale of Newton's energy criterion
+    while True:
+        v_new = state.t + dv
+        if len(history) == 1:
+            u_pred, p_pred, s_pred = state.u + dv * rate_u, state.p + dv * rate_p, state.stresses
+        else:
+            u_pred, p_pred, s_pred = extrapolate(history, v_new, opt.predictor_order)
+        res = newton.solve(u_pred, load_at(p_pred), volume=v_new, stresses=s_pred,
+                           work=done + abs((p_pred - state.p) * (v_new - state.t)), strict=cuts < 2)
+        if not res.converged:
+            cuts += 1
+            newton.stats.cuts += 1
+            log.info("volume %.5g mL: Newton failed (%s; residuals %s); cutting the step",
+                     v_new / 1000.0, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
+            if cuts > opt.max_cuts:
+                raise PathFailure("pressure", state, v_new, res, f"failed after {cuts - 1} cuts: {res.why}")
+            dv *= 0.5
+            continue
+        newton.stats.increments += 1
+        new = State(v_new, res.u, res.pressure_mpa, res.evaluation, res.stresses)
+        done += abs(0.5 * (new.p + state.p) * (new.t - state.t))
+        bend = angle(new.u)
+        log.info("pressure %.4g kPa (volume +%.4g mL): bend %.1f deg, %d factorisations%s",
+                 1000.0 * new.p, (new.t - first.t) / 1000.0, bend, res.factorizations,
+                 f", sheet {100 * new.ev.wrinkled:.0f}% wrinkled" if new.ev.wrinkled else "")
+        ptol = 1e-5 * abs(state.p) + 1e-12
+        if not peaked and new.p < state.p - ptol:
+            peaked = True
+            top = _solve_peak(newton, history + [new], load_at, done)
+            fresh = top is not None and top.p > state.p and top.t > state.t
+            top = top if fresh else state  # the last state on the rise, already reported
+            log.info("pressure maximum %.4g kPa at volume +%.4g mL", 1000.0 * top.p,
+                     (top.t - first.t) / 1000.0)
+            if on_maximum is not None:
+                on_maximum(top)
+            if not past_maximum:
+                if targets is None and fresh:
+                    on_step(top)
+                return top, "pressure_maximum"
+        landings = []
+        for target in [q for q in pending if state.p < q <= new.p]:
+            landed = _land(newton, history + [new], target, load_at, done)
+            if landed is None:
+                break
+            landings.append(landed)
+        if len(landings) < sum(state.p < q <= new.p for q in pending):
+            cuts += 1  # a requested pressure could not be landed on: a shorter increment
+            newton.stats.cuts += 1
+            if cuts > opt.max_cuts:
+                raise PathFailure("pressure", state, v_new, res,
+                                  f"landing on a requested pressure failed after {cuts - 1} cuts")
+            dv *= 0.5
+            continue
+        for landed in landings:
+            target = pending.pop(0)
+            stop, _ = on_step(landed)
+            if target >= p_limit:
+                return landed, "pressure_limit"
+            if targets is not None and not pending:
+                return landed, "targets"
+            if stop:
+                return landed, "stopped"
+        if new.p >= p_limit:  # exactly on the limit: already reported as landed
+            return new, "pressure_limit"
+        if targets is None:
+            stop, _ = on_step(new)
+            if stop:
+                return new, "stopped"
+        history = (history + [new])[-(opt.predictor_order + 2):]
+        dp = new.p - state.p
+        dv = _next_step(newton, v_new - state.t, res.factorizations, abs(bend - last_angle),
+                        dp, control)
+        state, last_angle, cuts = new, bend, 0
+
+
+def _solve_peak(newton: Newton, history: Sequence[State], load_at: Callable[[float], Load],
+                work: float) -> State | None:
+    """The converged state at the located pressure maximum (volume control), or None."""
+    v = _peak(history)
+    u_pred, p_pred, s_pred = extrapolate(history, v, min(newton.options.predictor_order,
+                                                         len(history) - 1))
+    res = newton.solve(u_pred, load_at(p_pred), volume=v, stresses=s_pred, work=work,
+                       strict=False)
+    return (State(v, res.u, res.pressure_mpa, res.evaluation, res.stresses) if res.converged
+            else None)
+
+
+def _land(newton: Newton, history: Sequence[State], p_target: float,
+          load_at: Callable[[float], Load], work: float) -> State | None:
+    """The converged state at exactly ``p_target`` between the last two states (pressure
+    control from an interpolated predictor), or None."""
+    order = min(newton.options.predictor_order, len(history) - 1)
+    v = _interpolate_volume(history, p_target, order)
+    u_pred, _, s_pred = extrapolate(history, v, order)
+    res = newton.solve(u_pred, load_at(p_target), stresses=s_pred, work=work, strict=False)
+    if not res.converged:
+        log.info("landing on %.4g kPa failed (%s)", 1000 * p_target, res.why)
+        return None
+    return State(res.evaluation.cavity_volume_mm3, res.u, p_target, res.evaluation,
+                 res.stresses)
