@@ -4,6 +4,7 @@ force, ``fem_field.npz``, ``bending.png`` and the ParaView files ``fem/bending.p
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import time
 from pathlib import Path
@@ -32,6 +33,9 @@ def fem_report(run: FeRun) -> dict[str, Any]:
     return {
         "full_bend_pressure_kpa": None if sol.full_bend_pressure_kpa is None else round(sol.full_bend_pressure_kpa, 4),
         "reason": sol.reason,
+        "stop": sol.stop,
+        "pressure_maximum": (None if sol.pressure_maximum is None else
+                             {k: round(float(v), 4) for k, v in dataclasses.asdict(sol.pressure_maximum).items()}),
         "max_pressure_kpa": round(sol.max_pressure_kpa, 4),
         "orientation": run.orientation,
         "mesh": {"nodes": run.quality.n_nodes, "tets": run.quality.n_tets, "half_model": run.size.half,

@@ -17,7 +17,7 @@ from pnmold import report as rep
 from pnmold.checklist import checklist_sections, render_markdown
 from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
-from pnmold.errors import UsageError
+from pnmold.errors import MeshingError, SolveError, UsageError
 from pnmold.fsutil import staged_dir, write_json, write_text
 from pnmold.report_html import write_report
 from pnmold.version import __version__
@@ -32,7 +32,8 @@ Progress = Callable[[str], None]
 
 @dataclass(frozen=True)
 class BuildResult:
-    """What a build wrote and found; ``exit_code`` is 1 when a design-rule check failed."""
+    """What a build wrote and found; ``exit_code`` is 1 when a design-rule check failed, 3
+    when the quick FE failed (every part and the report are still written)."""
 
     design: Design
     out_dir: Path
@@ -43,8 +44,12 @@ class BuildResult:
         return [c for c in self.report["checks"] if c["passed"] is False]
 
     @property
+    def fem_failed(self) -> bool:
+        return self.report["fem"].get("stop") == "failed"
+
+    @property
     def exit_code(self) -> int:
-        return 1 if self.failed_checks else 0
+        return 1 if self.failed_checks else 3 if self.fem_failed else 0
 
     def steps_frame(self):
         """The quick FE's steps (``report["fem"]["steps"]``) as a pandas DataFrame, one row per
@@ -155,6 +160,8 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
             report["fem"]["reason"] = "skipped: a design-rule check failed"
         else:
             report["fem"] = timed("fem", _quick_fe, design, tmp, fem_size)
+            if report["fem"].get("stop") == "failed":  # the parts stand; the FE's reason is reported
+                say(f"quick FE failed: {report['fem']['reason']}")
         write_json(tmp / "report.json", report)
         write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
         timed("report", write_report, tmp, report)
@@ -167,8 +174,13 @@ def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dic
     from pnmold.fe_report import bending_figure, blocked_force_report, fem_report, write_field, write_paraview
     from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, run_fe
 
-    run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH, options=BUILD_OPTIONS,
-                 keep_partial=True)
+    try:
+        run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH,
+                     options=BUILD_OPTIONS, keep_partial=True)
+    except (MeshingError, SolveError) as err:  # nothing converged: no curve to report
+        log.warning("quick FE failed: %s", err)
+        return {"full_bend_pressure_kpa": None, "reason": f"failed: {err}", "max_pressure_kpa": None,
+                "stop": "failed", "steps": []}
     bending_figure(run, folder / "bending.png")
     write_field(run, folder / "fem_field.npz")
     section = fem_report(run)

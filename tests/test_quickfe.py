@@ -126,3 +126,25 @@ def test_simulate_refuses_what_it_cannot_do(capsys):
     assert main(["simulate", "fpn", "--pressures", "10:5:1"]) == 2
     assert main(["simulate", "fpn", "--effects", "mullins=0.2"]) == 2
     assert "mullins" in capsys.readouterr().err
+
+
+def test_a_build_whose_fe_fails_keeps_its_parts_and_report(tmp_path, monkeypatch):
+    """Issue 17: a failed FE never costs the molds. Newton is allowed one iteration and no
+    cut, so the very first (gravity) increment fails; the build still writes every part, the
+    gate's findings, report.json with the reason and report.html, and exits 3."""
+    import pnmold.quickfe as quickfe
+    from pnmold.fem import NewtonOptions, SolveOptions
+
+    monkeypatch.setattr(quickfe, "BUILD_OPTIONS",
+                        SolveOptions(newton=NewtonOptions(max_iterations=1, max_cuts=0)))
+    out = tmp_path / "fpn"
+    assert main(["build", "--out", str(out), "--no-slicer", "--quiet"]) == 3
+    report = json.loads((out / "report.json").read_text())
+    design = load_design("fpn")
+    for part in design.part_names:
+        assert (out / f"{part}.step").stat().st_size > 0 and (out / f"{part}.stl").stat().st_size > 0
+    assert (out / "report.html").is_file() and (out / "checklist.md").is_file()
+    assert report["checks"] and all(c["passed"] is not False for c in report["checks"])
+    fem = report["fem"]
+    assert fem["stop"] == "failed" and fem["full_bend_pressure_kpa"] is None
+    assert "gravity stage failed" in fem["reason"] and "try:" in fem["reason"]

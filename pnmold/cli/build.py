@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from pnmold.cli._common import add_design, load, out_console, stages, verdict
+from rich.markup import escape
+
+from pnmold.cli._common import add_design, err_console, load, out_console, stages, verdict
 
 HELP = "CAD, export, checks, quick FE into out/<design>/"
 DESCRIPTION = "Build the actuator and its three molds as STEP and STL."
@@ -24,4 +26,8 @@ def run(args) -> int:
     if not args.quiet:
         out_console.print(f"wrote {result.out_dir}/ ({len(result.report['parts'])} parts as "
                           f"STEP and STL, design.toml, report.json, report.html)")
-    return verdict(result.report["checks"], args.quiet)
+    code = verdict(result.report["checks"], args.quiet)
+    if result.fem_failed:
+        err_console.print(f"[red]quick FE failed[/red]: {escape(result.report['fem']['reason'])} "
+                          "(the parts, the checks and the report are written)")
+    return code or result.exit_code
