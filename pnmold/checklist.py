@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from pnmold.design import Design
-from pnmold.errors import UsageError
 from pnmold.layout import USES
 from pnmold.slicer import DEFAULT_PROFILE, read_profile
 
@@ -32,13 +31,10 @@ class Section:
     steps: tuple[str, ...]
 
 
-def _library_material(design: Design):
-    from pnmold.materials import get_material
+def _library_material(name: str):
+    from pnmold.materials.library import find_material
 
-    try:
-        return get_material(design.material.name)
-    except UsageError:
-        return None
+    return find_material(name)
 
 
 def _g(x: float) -> str:
@@ -46,8 +42,8 @@ def _g(x: float) -> str:
     return f"{x:.4g} g"
 
 
-def _pour_steps(pour: dict[str, Any], design: Design, material) -> list[str]:
-    m = design.material
+def _pour_steps(pour: dict[str, Any], m, material) -> list[str]:
+    """Weigh, mix and degas one pour of the rubber ``m`` (a design's; ``material``: its library entry)."""
     pot = f"; pot life about {material.pot_life_min:.0f} min" if material else ""
     return [
         f"Weigh {_g(pour['part_a_g'])} of part A and {_g(pour['part_b_g'])} of part B "
@@ -92,11 +88,14 @@ def _fem_numbers(report: dict[str, Any], material) -> tuple[str, str]:
 
 def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
     """The ordered steps of fabrication and testing for ``design``, given its build report."""
-    material = _library_material(design)
+    material = _library_material(design.material.name)
+    layer = design.bottom_material
+    layer_library = _library_material(layer.name)
     pours = {p["part"]: p for p in report["pours"]}
     slicer = report.get("slicer") or {}
     profile = read_profile(DEFAULT_PROFILE)
     px, py = design.paper_size_mm
+    paper = design.paper.present
     prints = []
     for name, use in USES.items():
         est = slicer.get(name) or {}
@@ -115,20 +114,21 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
                                     f"into the exterior mold's recess ({design.mold.clearance_mm:g} mm clearance).")),
         Section("Cast the top layer (extensible, with the chambers)", (
             "Turn the exterior mold over (ceiling down) on a level surface.",
-            *_pour_steps(top, design, material),
+            *_pour_steps(top, design.material, material),
             "Pour into the exterior mold, filling the plates' gaps and the box.",
             "Press the interior mold in, chambers down, until its plate seats on the ledge; wipe the overflow.",
             _cure_step(material, "top layer"),
             "Demold: lift the interior mold out, then peel the top layer off the exterior mold's plates.")),
-        Section("Cast the bottom layer (strain-limiting, with the paper)", (
-            f"Cut the paper to {px:.1f} x {py:.1f} mm ({design.paper.thickness_mm:g} mm sheet).",
-            "Lay it flat on the bottom mold's floor between the four corner stops "
-            f"({design.paper.inset_mm:g} mm from every edge).",
-            *_pour_steps(bottom, design, material),
-            f"Pour over the paper to the top of the pocket ({design.bottom_layer.thickness_mm:g} mm deep).",
+        Section(f"Cast the bottom layer (strain-limiting, {'with the paper' if paper else layer.name})", (
+            *((f"Cut the paper to {px:.1f} x {py:.1f} mm ({design.paper.thickness_mm:g} mm sheet).",
+               "Lay it flat on the bottom mold's floor between the four corner stops "
+               f"({design.paper.inset_mm:g} mm from every edge).") if paper else ()),
+            *_pour_steps(bottom, layer, layer_library),
+            f"Pour {'over the paper ' if paper else ''}to the top of the pocket "
+            f"({design.bottom_layer.thickness_mm:g} mm deep).",
             "Before it cures, set the cured top layer into it, chambers down, pressing gently so no air stays "
             "under the walls.",
-            _cure_step(material, "bonded actuator"),
+            _cure_step(layer_library, "bonded actuator"),
             "Alternative: cure the bottom layer alone, then bond the top layer to it with a silicone adhesive "
             "such as Elastosil E951.",
             "Demold the actuator and trim the flash.")),

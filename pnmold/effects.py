@@ -133,13 +133,17 @@ CATALOGUE: tuple[Effect, ...] = (
     ),
 
     Effect(
-        "dead_volume", "volume_ml", "mL", 0.0, (0.0, 20.0), ("step", "pv"),
+        "dead_volume", "volume_ml", "mL", 0.0, (0.0, 500.0), ("step", "pv"),
         "compressible gas volume in tubing/fittings in series with the chambers",
         "step: slower pressure rise and bend, same final pressure and bend; metered gas against "
         "inlet pressure offset by V_d (p / p_std) (T_std / T) std mL, growing with pressure; "
-        "pv (water): injected volume exceeds the chambers' by V_d p / (p_atm + p)",
-        source="assumed (fittings, sensor tees: 0-20 mL)",
-        models=("dynamic",)),
+        "pv: more volume than the chambers take, V_d p / (p_atm + p) (a trapped bubble in water, or the air "
+        "a piston compresses before the actuator), growing with pressure and bending over toward p_atm",
+        rom="pv: the recorded volume gains V_d p / (p_atm + p) (isothermal gas between the rig and the cavity; "
+            "with an air rig, besides the cavity's own air and the recording's air_column_ml: "
+            "pnmold.physics.reading)",
+        source="assumed (fittings and sensor tees: 0-20 mL; a piston rig's air column: hundreds of mL)",
+        models=("dynamic", "rom")),
     Effect(
         "flow_restriction", "extra_resistance", "1", 0.0, (0.0, 20.0), ("step",),
         "pneumatic resistance of valve, tubing and the connecting channel (multiple of nominal)",

@@ -29,6 +29,7 @@ import numpy as np
 from pnmold.design import Design
 from pnmold.errors import MeshingError
 from pnmold.tetmesh import (
+    BOTTOM_LAYER,
     CAVITY,
     CLAMP,
     ELASTOMER,
@@ -97,6 +98,7 @@ def name_facets(nodes: np.ndarray, facets: np.ndarray, design: Design, half: boo
     px, py = design.paper_size_mm
     i = design.paper.inset_mm
     under_paper = bottom & (x >= i - _TOL) & (x <= i + px + _TOL) & (np.abs(centre[:, 1]) <= py / 2 + _TOL)
+    under_paper &= design.paper.present
     free_end = (np.abs(x - design.length_mm) < _TOL) & (normal[:, 0] > 0.99)
     named = {CAVITY: cavity, CLAMP: proximal & (top | bottom), STRAIN_LIMITING_LAYER: under_paper,
              FREE_END: free_end}
@@ -122,15 +124,22 @@ def _geometry(step: Path, design: Design, half: bool) -> list[int]:
     if len(gmsh.model.getEntities(3)) != 1:
         raise MeshingError(f"{step}: filling the inlet gave {len(gmsh.model.getEntities(3))} solids")
     # imprint the paper's outline on the bottom face and the clamp's end on the top and
-    # bottom faces, so that the mesh conforms to both
-    px, py = design.paper_size_mm
-    y0 = 0.0 if half else -py / 2
-    paper = occ.addRectangle(design.paper.inset_mm, y0, 0.0, px, py / 2 if half else py)
+    # bottom faces, so that the mesh conforms to both; a bottom layer of its own rubber is cut
+    # off at its top face, so that every element is one rubber or the other
+    tools = []
+    if design.paper.present:
+        px, py = design.paper_size_mm
+        y0 = 0.0 if half else -py / 2
+        tools.append((2, occ.addRectangle(design.paper.inset_mm, y0, 0.0, px, py / 2 if half else py)))
     x_clamp = design.clamp_end_mm
     cut = occ.addRectangle(-2.0, -design.width_mm, 0.0, design.height_mm + 4, 2 * design.width_mm)
     occ.rotate([(2, cut)], 0, 0, 0, 0, 1, 0, -np.pi / 2)
     occ.translate([(2, cut)], x_clamp, 0, 0)
-    occ.fragment(gmsh.model.occ.getEntities(3), [(2, paper), (2, cut)])
+    tools.append((2, cut))
+    if design.layer_material.name:
+        tools.append((2, occ.addRectangle(-1.0, -design.width_mm, design.top_z0_mm, design.length_mm + 2,
+                                          2 * design.width_mm)))
+    occ.fragment(gmsh.model.occ.getEntities(3), tools)
     occ.synchronize()
     loose = [(2, t) for _, t in gmsh.model.getEntities(2) if len(gmsh.model.getAdjacencies(2, t)[0]) == 0]
     occ.remove(loose, recursive=True)
@@ -226,8 +235,10 @@ def mesh_actuator(step: str | Path, design: Design, size: MeshSize | None = None
     for name in (CAVITY, CLAMP, FREE_END):
         if len(facets[name]) == 0:
             raise MeshingError(f"{step}: no facets found for the boundary {name!r}")
-    mesh = TetMesh(nodes, tets, facets, {ELASTOMER: np.arange(len(tets))},
-                   tip_mm=(design.length_mm, 0.0, 0.0), half=size.half)
+    regions = {ELASTOMER: np.arange(len(tets))}
+    if design.layer_material.name:
+        regions[BOTTOM_LAYER] = np.flatnonzero(nodes[tets][:, :, 2].mean(axis=1) < design.top_z0_mm)
+    mesh = TetMesh(nodes, tets, facets, regions, tip_mm=(design.length_mm, 0.0, 0.0), half=size.half)
     quality = MeshQuality(len(nodes), len(tets), float(gamma.min()), float(gamma.mean()),
                           float(np.abs(vol).min()))
     log.info("meshed %s: %d nodes, %d tets, min gamma %.3f", step.name, len(nodes), len(tets), quality.min_gamma)

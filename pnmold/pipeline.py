@@ -121,7 +121,7 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
     """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``).
 
     ``fem_size`` overrides the quick FE's mesh size (default :class:`MeshSize`)."""
-    from pnmold.cad import PART_NAMES, export_parts, make_parts
+    from pnmold.cad import export_parts, make_parts
 
     say = progress or (lambda stage: None)
     final = Path(out_dir) if out_dir is not None else default_out_dir(design)
@@ -139,7 +139,7 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
         timed("export", export_parts, shapes, tmp)
         del shapes
         write_text(tmp / "design.toml", to_toml(design))
-        parts = timed("measure", rep.measure_parts, tmp, PART_NAMES)
+        parts = timed("measure", rep.measure_parts, tmp, design.part_names)
         report: dict[str, Any] = {
             "schema": rep.SCHEMA,
             "pnmold_version": __version__,

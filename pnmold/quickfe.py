@@ -54,8 +54,11 @@ def material_of(design: Design) -> Yeoh:
                 density_g_per_ml=m.density_g_per_ml, stretch_at_break=stretch)
 
 
-def membrane_of(design: Design) -> Membrane:
+def membrane_of(design: Design) -> Membrane | None:
+    """The paper sheet as a membrane on the bottom face; None in a design without paper."""
     p = design.paper
+    if not p.present:
+        return None
     return Membrane(modulus_mpa=p.modulus_mpa, poisson=p.poisson, thickness_mm=p.thickness_mm)
 
 
@@ -68,10 +71,16 @@ def design_for_fe(design: Design, effects: Mapping[str, float]) -> tuple[Design,
         m = design.material
         design = design.replace("material", c20_mpa=m.c20_mpa + c20, c30_mpa=m.c30_mpa + c30)
     compliance = value_of(values, "layer_compliance")
-    if compliance:
+    if compliance and design.paper.present:  # the paper's E*t in series with the compliance
         p = design.paper
         stiffness = 1.0 / (1.0 / (p.modulus_mpa * p.thickness_mm) + compliance)
         design = design.replace("paper", modulus_mpa=stiffness / p.thickness_mm)
+    elif compliance:  # the layer's rubber alone limits the strain: its 6 C10 t in series, every constant alike
+        m = design.bottom_material
+        rubber = 6.0 * m.c10_mpa * design.bottom_layer.thickness_mm
+        factor = 1.0 / (1.0 + compliance * rubber)
+        design = design.replace("layer_material", c10_mpa=m.c10_mpa * factor, c20_mpa=m.c20_mpa * factor,
+                                c30_mpa=m.c30_mpa * factor)
     return design, value_of(values, "gravity")
 
 

@@ -25,6 +25,8 @@ import numpy as np
 from pnmold.conventions import ORIENTATIONS, QUASI_STATIC_KINDS, RECORDING_KINDS
 from pnmold.errors import RecordingError
 from pnmold.fsutil import write_text
+from pnmold.measurement import KEYS as MEASUREMENT_KEYS
+from pnmold.measurement import Measurement, measurement_of
 from pnmold.units import ABSOLUTE_UNITS, PRESSURE_UNITS, VOLUME_UNITS
 
 log = logging.getLogger(__name__)
@@ -38,6 +40,9 @@ COLUMNS = {
     "step": (("time_s", "supply_kpa", "pressure_kpa"),
              ("flow_slpm", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "pressure_far_kpa", "volume_ml")),
 }
+#: kind -> another set of required columns that may stand for the first (a bending test that
+#: measured only the bend angle, from a curvature, as many labs do)
+ALTERNATIVE_COLUMNS = {"bending": ("pressure_kpa", "bend_angle_deg")}
 PHASES = ("inflate", "deflate")
 _TEXT_COLUMNS = ("phase",)
 
@@ -84,6 +89,7 @@ METADATA_KEYS = {
     "atmosphere_kpa": (("step",), "absolute ambient pressure (default 101.325 kPa)"),
     "temperature_k": (("step",), "gas temperature (default 293.15 K)"),
     "gas_law": (("step",), "isothermal (the only one the step model has; adiabatic is refused)"),
+    **MEASUREMENT_KEYS,
 }
 
 
@@ -99,6 +105,7 @@ class Recording:
     columns: dict[str, np.ndarray]
     metadata: dict[str, str] = field(default_factory=dict)
     conversions: dict[str, str] = field(default_factory=dict)
+    measurement: Measurement = field(default_factory=Measurement)
 
     @property
     def orientation(self) -> str:
@@ -254,8 +261,12 @@ def read_recording(path: str | Path) -> Recording:
     kind = _check_metadata(meta, p, [n for n in names if n])
     required, optional = COLUMNS[kind]
     missing = [c for c in required if c not in names]
+    alternative = ALTERNATIVE_COLUMNS.get(kind)
+    if missing and alternative is not None and set(alternative) <= set(names):
+        required, missing = alternative, []
     if missing:
-        raise RecordingError(p, header_line, f"a {kind} recording needs column(s) {', '.join(missing)}",
+        instead = f" (or {', '.join(alternative)})" if alternative else ""
+        raise RecordingError(p, header_line, f"a {kind} recording needs column(s) {', '.join(missing)}{instead}",
                              column=missing[0])
     used = {i: n for i, n in enumerate(names) if n in required + optional}
     data: dict[str, list] = {n: [] for n in used.values()}
@@ -285,7 +296,7 @@ def read_recording(path: str | Path) -> Recording:
                                  column=_column(header, "time_s"))
     for name, how in conversions.items():
         log.info("%s: %s %s", p, name, how)
-    return Recording(p, kind, columns, meta, conversions)
+    return Recording(p, kind, columns, meta, conversions, measurement_of(meta, p))
 
 
 def _header(cells: list[str], path: str, line: int) -> tuple[list[str], list[str | None], list[float]]:

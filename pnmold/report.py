@@ -41,23 +41,25 @@ def measure_parts(out_dir: Path, names: tuple[str, ...]) -> dict[str, dict[str, 
 def pours(design: Design, parts: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
     """Elastomer per pour: the cast volume and mass, and part A / part B to mix.
 
-    ``volume_ml`` and ``mass_g`` are the cast elastomer (the paper's volume excluded);
-    ``part_a_g`` and ``part_b_g`` split ``mix_g`` = mass x (1 + casting.waste_margin) by the
-    material's A:B mix ratio by weight.
+    ``volume_ml`` and ``mass_g`` are the cast elastomer (the paper's volume excluded), each pour
+    of its own rubber (the bottom layer's: ``[layer_material]`` when named); ``part_a_g`` and
+    ``part_b_g`` split ``mix_g`` = mass x (1 + casting.waste_margin) by that rubber's A:B mix
+    ratio by weight.
     """
-    m, margin = design.material, design.casting.waste_margin
+    margin = design.casting.waste_margin
+    paper_mm3 = parts["paper"]["volume_mm3"] if "paper" in parts else 0.0
     cast = {
-        "mold_exterior+mold_interior": parts["top_layer"]["volume_mm3"],
-        "mold_bottom": parts["bottom_layer"]["volume_mm3"] - parts["paper"]["volume_mm3"],
+        "mold_exterior+mold_interior": (parts["top_layer"]["volume_mm3"], design.material),
+        "mold_bottom": (parts["bottom_layer"]["volume_mm3"] - paper_mm3, design.bottom_material),
     }
     out = []
-    for mold, volume_mm3 in cast.items():
+    for mold, (volume_mm3, m) in cast.items():
         volume_ml = volume_mm3 / 1000.0
         mass_g = volume_ml * m.density_g_per_ml
         mix_g = mass_g * (1.0 + margin)
         a = mix_g * m.mix_ratio_a_to_b / (m.mix_ratio_a_to_b + 1.0)
         out.append({"mold": mold, "part": "top_layer" if "interior" in mold else "bottom_layer",
-                    "volume_ml": round(volume_ml, 4), "mass_g": round(mass_g, 4),
+                    "material": m.name, "volume_ml": round(volume_ml, 4), "mass_g": round(mass_g, 4),
                     "waste_margin": margin, "mix_g": round(mix_g, 4),
                     "part_a_g": round(a, 4), "part_b_g": round(mix_g - a, 4)})
     return out

@@ -124,9 +124,15 @@ def _picture(png: bytes | str, what: str, caption: str) -> str:
     return image(png, what, caption)
 
 
+def _part_names(report: dict[str, Any]) -> list[str]:
+    """The build's parts in picture order (a design without paper has no paper sheet)."""
+    built = report.get("parts")
+    return [n for n in render.PARTS if built is None or n in built]
+
+
 def _parts(folder: Path, report: dict[str, Any], pictures: dict[str, bytes | str]) -> str:
     figures = []
-    for name in render.PARTS:
+    for name in _part_names(report):
         if name not in pictures:
             figures.append(not_computed(f"{name}.stl is not in the build folder"))
             continue
@@ -139,10 +145,10 @@ def _parts(folder: Path, report: dict[str, Any], pictures: dict[str, bytes | str
     return f"<div class='grid'>{''.join(figures)}</div>"
 
 
-def _viewer(folder: Path) -> str:
-    if not all((folder / f"{n}.stl").is_file() for n in render.PARTS):
+def _viewer(folder: Path, names: list[str]) -> str:
+    if not all((folder / f"{n}.stl").is_file() for n in names):
         return not_computed("a part's STL file is missing from the build folder")
-    choices = [("molds and actuator, side by side", VIEWER_PARTS)] + [(n, (n,)) for n in render.PARTS]
+    choices = [("molds and actuator, side by side", VIEWER_PARTS)] + [(n, (n,)) for n in names]
     models = [(label, data_uri(render.glb(folder, names), "model/gltf-binary")) for label, names in choices]
     options = "".join(f"<option value='{uri}'>{esc(label)}</option>" for label, uri in models)
     return ("<p>Drag to turn, scroll to zoom. Each part in its use orientation (the exterior mold and the "
@@ -280,7 +286,7 @@ def report_page(folder: str | Path, report: dict[str, Any] | None = None) -> str
     pictures = render.pictures(jobs)
     sections = [
         ("parts", "Parts", _parts(folder, report, pictures)),
-        ("view3d", "3D view", _drawn("the 3D view", lambda: _viewer(folder))),
+        ("view3d", "3D view", _drawn("the 3D view", lambda: _viewer(folder, _part_names(report)))),
         ("checks", "Design-rule checks", _checks(report)),
         ("bending", "Bending and pressure–volume", _bending(folder, fem)),
         ("force", "Blocked force", _blocked_force(fem)),

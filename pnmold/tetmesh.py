@@ -19,7 +19,8 @@ SYMMETRY = "symmetry"  # the y = 0 plane of a half model (u_y = 0)
 BOUNDARY_NAMES = (CAVITY, CLAMP, STRAIN_LIMITING_LAYER, FREE_END, SYMMETRY)
 
 #: Named element sets.
-ELASTOMER = "elastomer"
+ELASTOMER = "elastomer"  # every element
+BOTTOM_LAYER = "bottom_layer"  # the strain-limiting layer's elements, when it is a rubber of its own
 
 
 @dataclass(frozen=True)

@@ -106,3 +106,22 @@ def test_fpn_chambers_share_no_wall_and_spn_chambers_do(built):
         between = S.box((d.cavity_x_mm(0)[1], -d.width_mm / 2, z0),
                         (d.cavity_x_mm(1)[0], d.width_mm / 2, d.height_mm))
         assert (S.overlap(ext, between) > 0) == expect_plates
+
+
+@pytest.mark.slow
+def test_a_rubber_layer_without_paper_builds_and_passes_the_gate(tmp_path):
+    """A strain-limiting layer of its own rubber and no paper: no paper part, no paper stops in the
+    bottom mold or layer, each pour of its own rubber, every check passing."""
+    from pnmold.pipeline import build
+
+    design = load_design("fpn", ["paper.present=false", "layer_material.name=Dragon Skin 30"])
+    result = build(design, tmp_path / "layer", fem=False, use_slicer=False)
+    assert result.exit_code == 0, result.failed_checks
+    assert not (result.out_dir / "paper.stl").exists() and set(result.report["parts"]) == set(design.part_names)
+    slab = design.length_mm * design.width_mm * design.bottom_layer.thickness_mm
+    assert result.report["parts"]["bottom_layer"]["volume_mm3"] == pytest.approx(slab, rel=1e-6)  # no dimples
+    pours = {p["part"]: p for p in result.report["pours"]}
+    assert pours["bottom_layer"]["material"] == "Dragon Skin 30" and pours["top_layer"]["material"] == "Elastosil M4601"
+    assert pours["bottom_layer"]["mass_g"] == pytest.approx(slab / 1000 * 1.08, rel=1e-4)
+    assert pours["bottom_layer"]["part_a_g"] == pytest.approx(pours["bottom_layer"]["part_b_g"])  # 1:1
+    assert "paper" not in (result.out_dir / "checklist.md").read_text().split("## 3.")[1].split("## 4.")[0]

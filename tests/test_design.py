@@ -115,3 +115,47 @@ def test_invalid_designs_are_refused_naming_the_field(override, field):
         load_design("fpn", [override])
     assert info.value.field == field
     assert field in str(info.value)
+
+
+def test_naming_a_library_rubber_loads_its_constants_and_says_so():
+    eco = load_design("fpn", ["material.name=ecoflex-00-30"])
+    assert eco.material.name == "Ecoflex 00-30"
+    assert (eco.material.c10_mpa, eco.material.density_g_per_ml, eco.material.mix_ratio_a_to_b) == (
+        0.008167, 1.07, 1.0)
+    text = to_toml(eco)
+    assert 'name = "Ecoflex 00-30"  # set by the user (--set)' in text
+    assert "c10_mpa = 0.008167  # Ecoflex 00-30, pnmold library" in text
+    assert "count = 11  # template fpn" in text  # the template set it, not the field's default
+
+
+@pytest.mark.parametrize(("overrides", "field", "words"), [
+    (["material.name=Ecoflex 00-30", "material.c10_mpa=0.11"], "material.c10_mpa", "name of its own"),
+    (["material.c10_mpa=0.2"], "material.c10_mpa", "Elastosil M4601's is 0.11"),
+    (["material.name=Labsil 7"], "material.c10_mpa", "not in the material library"),
+    (["layer_material.c10_mpa=0.2"], "layer_material.c10_mpa", "layer_material.name is empty"),
+    (["paper.present=false"], "paper.present", "stiffer rubber"),
+], ids=["library-mismatch", "default-mismatch", "unknown-rubber", "layer-without-name", "no-paper-no-layer"])
+def test_a_rubber_that_is_not_what_its_name_says_is_refused(overrides, field, words):
+    with pytest.raises(DesignError, match=words) as info:
+        load_design("fpn", overrides)
+    assert info.value.field == field
+
+
+def test_a_rubber_of_ones_own_needs_every_constant_and_keeps_them(tmp_path):
+    own = ["material.name=Labsil 7", "material.c10_mpa=0.05", "material.c20_mpa=0.001", "material.c30_mpa=0",
+           "material.density_g_per_ml=1.1", "material.mix_ratio_a_to_b=10"]
+    d = load_design("fpn", own)
+    assert (d.material.name, d.material.c10_mpa, d.material.mix_ratio_a_to_b) == ("Labsil 7", 0.05, 10.0)
+    path = tmp_path / "design.toml"
+    path.write_text(to_toml(d))
+    assert load_design(path) == d  # a resolved design.toml reads back as it was
+
+
+def test_a_rubber_strain_limiting_layer_without_paper():
+    d = load_design("fpn", ["paper.present=false", "layer_material.name=Dragon Skin 30"])
+    assert not d.paper.present and "paper" not in d.part_names and len(d.part_names) == 6
+    assert d.bottom_material.name == "Dragon Skin 30" and d.bottom_material.c10_mpa == 0.09631
+    assert load_design("fpn").bottom_material == load_design("fpn").material  # same rubber by default
+    slab = d.length_mm * d.width_mm * d.bottom_layer.thickness_mm
+    assert d.elastomer_mass_g == pytest.approx(((d.elastomer_volume_mm3 - slab) * 1.13 + slab * 1.08) / 1000)
+    assert digest(d) != digest(load_design("fpn"))

@@ -73,8 +73,9 @@ def test_every_tensile_example_reads(tmp_path):
 
 def _keys(doc, depth: int = 0) -> set[str]:
     """The keys of a JSON document that name fields (not data: part names, series, effects...)."""
-    data_maps = {"parts", "versions", "slicer", "timings_s", "noise", "calibrated", "parameters", "uncertainty",
-                 "effects", "series", "variants", "conversions", "window", "solver", "model_info", "probe"}
+    data_maps = {"parts", "versions", "slicer", "timings_s", "noise", "noise_parts", "calibrated", "parameters",
+                 "uncertainty", "effects", "series", "variants", "conversions", "window", "solver", "model_info",
+                 "probe", "final"}
     out = set()
     if isinstance(doc, dict):
         for key, value in doc.items():

@@ -279,7 +279,7 @@ def test_simulate_rom_force_and_pv_and_noise(cached_fpn):
     assert 0 < np.abs(a["tip_x_mm"] - clean["tip_x_mm"]).max() < 3
 
 
-@pytest.mark.parametrize("effects", ["nonsense=1", "mullins=3", "viscoelasticity.tau=2", "dead_volume=1"],
+@pytest.mark.parametrize("effects", ["nonsense=1", "mullins=3", "viscoelasticity.tau=2", "flow_restriction=1"],
                          ids=["unknown", "out-of-bounds", "unknown-param", "not-in-rom"])
 def test_simulate_refuses_bad_effects(cached_fpn, capsys, effects):
     assert main(["simulate", "fpn", "--model", "rom", "--effects", effects, "--quiet"]) == 2

@@ -9,6 +9,7 @@ import gmsh
 import numpy as np
 import pytest
 
+from pnmold.design import load_design
 from pnmold.mesh import boundary_facets, gmsh_session, mesh_actuator
 from pnmold.tetmesh import CAVITY, CLAMP, FREE_END, STRAIN_LIMITING_LAYER, SYMMETRY, MeshSize
 from tests.closed_form import cavity_mm3, part_volumes_mm3
@@ -104,3 +105,20 @@ def test_meshing_the_same_step_twice_gives_the_same_mesh(built, fpn_mesh):
     assert again.n_nodes == first.n_nodes and again.n_tets == first.n_tets
     assert np.array_equal(again.nodes_mm, first.nodes_mm)
     assert np.array_equal(again.tets, first.tets)
+
+
+def test_a_rubber_layer_of_its_own_is_a_region_the_mesh_conforms_to(tmp_path):
+    """The bottom layer's rubber differs: its elements are a region of their own, none crossing its top
+    face; without paper no facet is the paper's."""
+    from pnmold.cad import export_actuator_step
+    from pnmold.tetmesh import BOTTOM_LAYER
+
+    design = load_design("fpn", ["paper.present=false", "layer_material.name=Dragon Skin 30"])
+    mesh, _ = mesh_actuator(export_actuator_step(design, tmp_path), design, MeshSize(3.5, 7.0))
+    z = mesh.nodes_mm[mesh.tets][:, :, 2]
+    bottom = np.zeros(len(mesh.tets), bool)
+    bottom[mesh.regions[BOTTOM_LAYER]] = True
+    assert bottom.any() and (~bottom).any()
+    assert np.all(z[bottom].max(axis=1) <= design.top_z0_mm + 1e-6)
+    assert np.all(z[~bottom].min(axis=1) >= design.top_z0_mm - 1e-6)
+    assert len(mesh.facets[STRAIN_LIMITING_LAYER]) == 0

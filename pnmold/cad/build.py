@@ -9,16 +9,14 @@ from pathlib import Path
 import cadquery as cq
 
 from pnmold.cad import molds, parts
-from pnmold.design import Design
+from pnmold.design import PART_NAMES, Design
 from pnmold.errors import ExportError
 from pnmold.fsutil import atomic_path
 from pnmold.layout import USES
 
 log = logging.getLogger(__name__)
 
-#: Part names = file stems of CONTRACTS.md §3, in build order.
-PART_NAMES = ("actuator", "top_layer", "bottom_layer", "paper",
-              "mold_interior", "mold_exterior", "mold_bottom")
+__all__ = ["PART_NAMES", "export_actuator_step", "export_parts", "make_parts"]
 
 #: STL tessellation: absolute chordal deviation (mm) and angular deviation (rad).
 STL_TOLERANCE_MM = 0.005
@@ -26,18 +24,19 @@ STL_ANGULAR_RAD = 0.05
 
 
 def make_parts(design: Design) -> dict[str, cq.Shape]:
-    """Every part as a CadQuery solid, in casting position (CONTRACTS.md §2)."""
+    """Every part of :attr:`Design.part_names` as a CadQuery solid, in casting position (CONTRACTS.md §2)."""
     top = parts.top_layer(design)
     bottom = parts.bottom_layer(design)
-    return {
+    made = {
         "actuator": parts.actuator(design, top, bottom),
         "top_layer": top,
         "bottom_layer": bottom,
-        "paper": parts.paper(design),
+        "paper": parts.paper(design) if design.paper.present else None,
         "mold_interior": molds.interior_mold(design),
         "mold_exterior": molds.exterior_mold(design),
         "mold_bottom": molds.bottom_mold(design),
     }
+    return {name: made[name] for name in design.part_names}
 
 
 def _atomic(path: Path, write) -> None:

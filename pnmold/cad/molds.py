@@ -61,4 +61,5 @@ def bottom_mold(design: Design) -> cq.Shape:
     pocket = box("bottom mold pocket", (0.0, design.length_mm), _sym(design.width_mm / 2),
                  (0.0, t + m.pour_allowance_mm + 1.0))
     tray = cut("bottom mold pocket", outer, [pocket])
-    return fuse("bottom mold paper seat", [tray, *paper_seat_stops(design)])
+    stops = paper_seat_stops(design)
+    return fuse("bottom mold paper seat", [tray, *stops]) if stops else tray

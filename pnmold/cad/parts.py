@@ -63,7 +63,9 @@ def top_layer(design: Design) -> cq.Shape:
 
 
 def paper_seat_stops(design: Design) -> list[cq.Shape]:
-    """L-shaped corner stops on the bottom mold's floor that locate the paper sheet."""
+    """L-shaped corner stops on the bottom mold's floor that locate the paper sheet (none without one)."""
+    if not design.paper.present:
+        return []
     m, p = design.mold, design.paper
     px, py = design.paper_size_mm
     x0, y0, h, w, a = p.inset_mm, -py / 2, m.seat_height_mm, m.seat_width_mm, m.seat_arm_mm
@@ -85,7 +87,8 @@ def paper_seat_stops(design: Design) -> list[cq.Shape]:
 def bottom_layer(design: Design) -> cq.Shape:
     slab = box("bottom layer", (0.0, design.length_mm), _y(design),
                (0.0, design.bottom_layer.thickness_mm))
-    return cut("bottom layer stops", slab, paper_seat_stops(design))
+    stops = paper_seat_stops(design)
+    return cut("bottom layer stops", slab, stops) if stops else slab
 
 
 def paper(design: Design) -> cq.Shape:

@@ -9,10 +9,8 @@ from scipy.sparse.csgraph import connected_components
 from pnmold.checks import measure
 from pnmold.checks.context import BuildFiles
 from pnmold.checks.findings import Finding, at_least, at_most, equal
-from pnmold.layout import CAST_PARTS, MOLDS
 from pnmold.stlio import load_stl
 
-PARTS = CAST_PARTS + MOLDS
 _DEGENERATE_AREA_MM2 = 1e-9
 
 
@@ -58,4 +56,4 @@ def check_part(files: BuildFiles, name: str) -> list[Finding]:
 
 
 def check_meshes(files: BuildFiles) -> list[Finding]:
-    return [f for name in PARTS for f in check_part(files, name)]
+    return [f for name in files.design.part_names for f in check_part(files, name)]

@@ -5,6 +5,7 @@ from __future__ import annotations
 from rich.markup import escape
 
 from pnmold.cli._common import add_design, emit_json, json_file, load, out_console, stages
+from pnmold.errors import UsageError
 
 HELP = "compare recordings with the model and name the missing physics"
 DESCRIPTION = ("Compare lab recordings (CSV: see docs/recording-format.md; pressures in kPa, psi, bar, ... and "
@@ -23,15 +24,23 @@ def add_args(parser) -> None:
                         "standard output")
     parser.add_argument("--report", metavar="DIR", help="write report.html with before/after plots into DIR")
     parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling (default 0)")
+    parser.add_argument("--model-error", type=float, default=None, metavar="SHARE",
+                        help="the model's own form error as a share of each observable's range: the noise floor "
+                        "of a recording without repeated cycles (default 0.01; raise it for a design known only "
+                        "roughly, e.g. from another paper's drawings)")
 
 
 def run(args) -> int:
+    from pnmold.diagnose.data import MODEL_FORM_SHARE
     from pnmold.diagnose.run import diagnose_recordings
 
+    share = MODEL_FORM_SHARE if args.model_error is None else args.model_error
+    if not 0.0 <= share < 1.0:
+        raise UsageError(f"--model-error must be in [0, 1), got {share:g}")
     design = load(args)
     with stages(args, f"characterise {design.name} (once)") as say:
         diag = diagnose_recordings(design, args.recordings, seed=args.seed, json_path=json_file(args),
-                                   report_dir=args.report, progress=say)
+                                   report_dir=args.report, progress=say, model_form_share=share)
     emit_json(args, diag.doc)
     if not args.quiet:
         for r in diag.doc["recordings"]:

@@ -20,7 +20,7 @@ from pnmold.design.model import SECTIONS, Design
 from pnmold.design.rules import validate
 from pnmold.errors import DesignError
 
-_TYPES = {"int": int, "float": float, "str": str}
+_TYPES = {"int": int, "float": float, "str": str, "bool": bool}
 
 
 def templates_dir() -> Path:
@@ -82,7 +82,13 @@ def coerce_value(where: str, kind: type, value: Any) -> Any:
     return float(value)
 
 
+#: the constants a library material fills in when a design names it
+_RUBBER_KEYS = ("c10_mpa", "c20_mpa", "c30_mpa", "density_g_per_ml", "mix_ratio_a_to_b")
+
+
 def _apply(design: Design, table: dict[str, Any], origin: str) -> Design:
+    """``design`` with the values of a TOML ``table``, each recorded as set by ``origin``."""
+    origins = dict(design.origins)
     for section, values in table.items():
         if section not in SECTIONS:
             valid = ", ".join(SECTIONS)
@@ -91,7 +97,41 @@ def _apply(design: Design, table: dict[str, Any], origin: str) -> Design:
             raise DesignError(section, f"must be a table [{section}] in {origin}")
         changes = {k: coerce_value(f"{section}.{k}", field_type(f"{section}.{k}"), v) for k, v in values.items()}
         design = design.replace(section, **changes)
-    return design
+        if "name" in changes and section in ("material", "layer_material"):  # another rubber: the constants
+            for key in _RUBBER_KEYS:  # set before belonged to the one it replaces
+                origins.pop(f"{section}.{key}", None)
+        origins.update({f"{section}.{k}": origin for k in changes})
+    return dataclasses.replace(design, origins=tuple(origins.items()))
+
+
+def _with_library_rubber(design: Design, section: str) -> Design:
+    """A named rubber's constants: a library material's fill in what the design did not set (a
+    value set that differs is refused: it is another rubber, and deserves its own name); a rubber
+    not in the library must have every constant set."""
+    from pnmold.materials.library import find_material, list_materials
+
+    m, origins = getattr(design, section), dict(design.origins)
+    if not m.name:
+        return design
+    lib = find_material(m.name)
+    if lib is None:
+        missing = [k for k in _RUBBER_KEYS if f"{section}.{k}" not in origins]
+        known = ", ".join(x.name for x in list_materials())
+        if missing:
+            raise DesignError(f"{section}.{missing[0]}", f"{m.name!r} is not in the material library ({known}): "
+                              f"set its own {', '.join(f'{section}.{k}' for k in missing)}, or name a library rubber")
+        return design
+    changes = {"name": lib.name}
+    for key in _RUBBER_KEYS:
+        value, where = getattr(lib, key), f"{section}.{key}"
+        if where not in origins:
+            changes[key] = value
+            origins[where] = f"{lib.name}, pnmold library: {lib.source(key)}"
+        elif not math.isclose(getattr(m, key), value, rel_tol=1e-6, abs_tol=1e-12):
+            raise DesignError(where, f"is {getattr(m, key):g}, but {lib.name}'s is {value:g} (pnmold's material "
+                              f"library); to use other constants, give the rubber a name of its own (e.g. "
+                              f"'{lib.name} (lab fit)')")
+    return dataclasses.replace(design.replace(section, **changes), origins=tuple(origins.items()))
 
 
 def parse_override(text: str) -> tuple[str, str, Any]:
@@ -137,10 +177,13 @@ def load_design(ref: str | os.PathLike = "fpn", overrides: list[str] | tuple[str
     except UnicodeDecodeError as err:
         raise DesignError("design", f"{path}: not UTF-8 text") from err
     table.setdefault("design", {}).setdefault("name", path.stem)
-    design = _apply(Design(), table, str(path))
+    origin = f"template {path.stem}" if path.parent == templates_dir() else f"set by the user in {path.name}"
+    design = _apply(Design(), table, origin)
     for text in overrides:
         section, key, value = parse_override(text)
-        design = _apply(design, {section: {key: value}}, "--set")
+        design = _apply(design, {section: {key: value}}, "set by the user (--set)")
+    for section in ("material", "layer_material"):
+        design = _with_library_rubber(design, section)
     validate(design)
     return design
 
@@ -152,18 +195,31 @@ def as_dict(design: Design) -> dict[str, dict[str, Any]]:
 def to_toml(design: Design) -> str:
     """Every field of the resolved design as TOML, with each field's source as a comment."""
     lines = [f"# pnmold resolved design {design.name!r}, digest {digest(design)}"]
+    origins = dict(design.origins)
     for name, cls in SECTIONS.items():
         lines.append(f"\n[{name}]")
         section = getattr(design, name)
         for f in dataclasses.fields(cls):
             value = getattr(section, f.name)
-            text = json.dumps(value) if isinstance(value, str) else repr(value)
-            source = f.metadata.get("source", "")
+            text = json.dumps(value) if isinstance(value, str | bool) else repr(value)
+            source = origins.get(f"{name}.{f.name}") or f.metadata.get("source", "")
             lines.append(f"{f.name} = {text}" + (f"  # {source}" if source and source != "-" else ""))
     return "\n".join(lines) + "\n"
 
 
+#: fields added after the first designs were keyed: they enter the digest only when a design sets them
+#: off their default, so the designs that do not use them keep their digests (and their caches)
+_OPTIONAL_SINCE_V1 = {"paper.present": True, "layer_material.name": "", "layer_material.c10_mpa": 0.0,
+                      "layer_material.c20_mpa": 0.0, "layer_material.c30_mpa": 0.0,
+                      "layer_material.density_g_per_ml": 0.0, "layer_material.mix_ratio_a_to_b": 0.0}
+
+
 def digest(design: Design) -> str:
     """Short content hash of every field: keys outputs and caches."""
-    blob = json.dumps(as_dict(design), sort_keys=True).encode()
+    fields = as_dict(design)
+    for key, default in _OPTIONAL_SINCE_V1.items():
+        section, _, name = key.partition(".")
+        if fields[section].get(name) == default:
+            del fields[section][name]
+    blob = json.dumps({k: v for k, v in fields.items() if v}, sort_keys=True).encode()
     return hashlib.sha256(blob).hexdigest()[:16]

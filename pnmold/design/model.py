@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 from pnmold.materials.library import ELASTOSIL
 
 KINDS = ("fpn", "spn")
+#: the parts of a build, in build order (CONTRACTS.md §3: file stems)
+PART_NAMES = ("actuator", "top_layer", "bottom_layer", "paper", "mold_interior", "mold_exterior", "mold_bottom")
 
 
 def _f(default, doc: str, source: str = "assumed"):
@@ -81,7 +83,23 @@ class BottomLayer:
 
 
 @dataclass(frozen=True)
+class LayerMaterial:
+    """The bottom (strain-limiting) layer's elastomer when it is not the top layer's: a stiffer
+    rubber limits the strain alone, or together with the paper. Empty name: the same as
+    ``[material]`` (and the constants stay 0); a library name fills in its constants."""
+
+    name: str = _f("", "elastomer of the bottom (strain-limiting) layer; empty: [material]'s", "-")
+    c10_mpa: float = _f(0.0, "Yeoh C10 (0 with an empty name)", "-")
+    c20_mpa: float = _f(0.0, "Yeoh C20", "-")
+    c30_mpa: float = _f(0.0, "Yeoh C30", "-")
+    density_g_per_ml: float = _f(0.0, "density of the cured elastomer (0 with an empty name)", "-")
+    mix_ratio_a_to_b: float = _f(0.0, "part A : part B by weight (0 with an empty name)", "-")
+
+
+@dataclass(frozen=True)
 class Paper:
+    present: bool = _f(True, "a paper sheet limits the strain (false: the bottom layer's rubber alone)",
+                       SUPPLEMENT + ": paper as the inextensible material")
     thickness_mm: float = _f(
         0.1,
         "paper sheet thickness; it lies on the mold floor (z = 0)",
@@ -161,7 +179,7 @@ class Printer:
 SECTIONS = {
     "design": Meta, "chambers": Chambers, "channel": Channel, "top_layer": TopLayer,
     "bottom_layer": BottomLayer, "paper": Paper, "inlet": Inlet, "mold": Mold,
-    "material": Material, "casting": Casting, "printer": Printer,
+    "material": Material, "layer_material": LayerMaterial, "casting": Casting, "printer": Printer,
 }
 
 
@@ -178,8 +196,12 @@ class Design:
     inlet: Inlet = field(default_factory=Inlet)
     mold: Mold = field(default_factory=Mold)
     material: Material = field(default_factory=Material)
+    layer_material: LayerMaterial = field(default_factory=LayerMaterial)
     casting: Casting = field(default_factory=Casting)
     printer: Printer = field(default_factory=Printer)
+    #: where each value not at its default came from ("section.key" -> source): the design file, an
+    #: override, the material library; written into design.toml, not part of the digest
+    origins: tuple[tuple[str, str], ...] = field(default=(), compare=False, repr=False)
 
     # -- identity -----------------------------------------------------------------
     @property
@@ -189,6 +211,19 @@ class Design:
     @property
     def kind(self) -> str:
         return self.design.kind
+
+    @property
+    def bottom_material(self) -> Material:
+        """The bottom layer's elastomer: ``[layer_material]``, else the top layer's ``[material]``."""
+        m = self.layer_material
+        if not m.name:
+            return self.material
+        return Material(m.name, m.c10_mpa, m.c20_mpa, m.c30_mpa, m.density_g_per_ml, m.mix_ratio_a_to_b)
+
+    @property
+    def part_names(self) -> tuple[str, ...]:
+        """The parts a build exports (CONTRACTS.md §3): no paper sheet in a design without one."""
+        return tuple(n for n in PART_NAMES if self.paper.present or n != "paper")
 
     def replace(self, section: str, **changes) -> Design:
         """A new design with fields of one section changed (no mutation)."""
@@ -261,6 +296,14 @@ class Design:
         channel = (x1 - x0 - c.count * c.length_mm) * ch.width_mm * ch.height_mm
         gaps = (c.count - 1) * self.gap_mm * self.width_mm * (self.top_height_mm - self.top_layer.floor_mm)
         return envelope - cavities - channel - gaps
+
+    @property
+    def elastomer_mass_g(self) -> float:
+        """Mass of the cast actuator: the bottom slab of its own rubber (``bottom_material``), the rest
+        of the top layer's (the paper's few tenths of a gram left out)."""
+        slab_mm3 = self.length_mm * self.width_mm * self.bottom_layer.thickness_mm
+        return ((self.elastomer_volume_mm3 - slab_mm3) * self.material.density_g_per_ml
+                + slab_mm3 * self.bottom_material.density_g_per_ml) / 1000.0
 
     @property
     def channel_x_mm(self) -> tuple[float, float]:

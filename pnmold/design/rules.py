@@ -20,7 +20,9 @@ TUBE_INTERFERENCE_MAX = 0.3
 
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
-_NON_NEGATIVE = {"material.c20_mpa", "material.c30_mpa", "casting.waste_margin", "chambers.gap_mm"}
+_NON_NEGATIVE = {"material.c20_mpa", "material.c30_mpa", "casting.waste_margin", "chambers.gap_mm",
+                 "layer_material.c10_mpa", "layer_material.c20_mpa", "layer_material.c30_mpa",
+                 "layer_material.density_g_per_ml", "layer_material.mix_ratio_a_to_b"}
 
 
 def _need(ok: bool, field: str, message: str) -> None:
@@ -33,7 +35,7 @@ def _check_numbers(design: Design) -> None:
         section = getattr(design, name)
         for f in dataclasses.fields(section):
             value, where = getattr(section, f.name), f"{name}.{f.name}"
-            if isinstance(value, str):
+            if isinstance(value, str | bool):
                 continue
             _need(math.isfinite(value), where, f"must be a finite number, got {value}")
             if where in _SIGNED:
@@ -59,7 +61,8 @@ def _check_elastomer(design: Design) -> None:
                          ("chambers.outer_wall_mm", c.outer_wall_mm)):
         _need(value >= lim, field, f"{value} mm is below the castable minimum "
               f"casting.min_elastomer_wall_mm = {lim} mm")
-    bottom = design.bottom_layer.thickness_mm - design.mold.seat_height_mm
+    stops = design.mold.seat_height_mm if design.paper.present else 0.0
+    bottom = design.bottom_layer.thickness_mm - stops
     _need(bottom >= lim, "bottom_layer.thickness_mm",
           f"leaves {bottom:.3g} mm of elastomer over the paper stops (mold.seat_height_mm); "
           f"needs at least {lim} mm")
@@ -109,7 +112,8 @@ def _check_channel_and_inlet(design: Design) -> None:
     _need(abs(inlet.axis_offset_mm) < ch.height_mm / 2 + r, "inlet.axis_offset_mm",
           f"{inlet.axis_offset_mm} mm puts the bore beside the channel: it must reach it")
     bottom = design.inlet_axis_z_mm - r
-    _need(bottom >= design.paper.thickness_mm + design.casting.min_elastomer_wall_mm,
+    paper = design.paper.thickness_mm if design.paper.present else 0.0
+    _need(bottom >= paper + design.casting.min_elastomer_wall_mm,
           "inlet.diameter_mm", f"the bore's bottom at z = {bottom:.3g} mm would cut into the paper "
           f"(needs {design.casting.min_elastomer_wall_mm} mm of elastomer above it)")
     top_limit = design.height_mm - c.outer_wall_mm
@@ -125,7 +129,23 @@ def _check_channel_and_inlet(design: Design) -> None:
           f"{inlet.tubing_id_mm} mm must be smaller than the outer diameter {inlet.tubing_od_mm} mm")
 
 
+def _check_layer_material(design: Design) -> None:
+    m = design.layer_material
+    given = {k: getattr(m, k) for k in ("c10_mpa", "c20_mpa", "c30_mpa", "density_g_per_ml", "mix_ratio_a_to_b")}
+    if not m.name:
+        for key, value in given.items():
+            _need(value == 0, f"layer_material.{key}", f"is {value:g} but layer_material.name is empty (the "
+                  "bottom layer is [material]'s rubber); name the layer's rubber to give it constants")
+        _need(design.paper.present, "paper.present", "without paper, the bottom layer must be a stiffer rubber "
+              "to limit the strain: name it in layer_material.name (a library material or your own)")
+        return
+    for key in ("c10_mpa", "density_g_per_ml", "mix_ratio_a_to_b"):
+        _need(given[key] > 0, f"layer_material.{key}", f"must be positive for {m.name!r}, got {given[key]:g}")
+
+
 def _check_paper(design: Design) -> None:
+    if not design.paper.present:
+        return
     p, m = design.paper, design.mold
     _need(p.thickness_mm <= m.seat_height_mm, "paper.thickness_mm",
           f"{p.thickness_mm} mm is thicker than the corner stops that hold it "
@@ -164,5 +184,6 @@ def validate(design: Design) -> Design:
     _check_printable(design)
     _check_channel_and_inlet(design)
     _check_paper(design)
+    _check_layer_material(design)
     _check_build_volume(design)
     return design

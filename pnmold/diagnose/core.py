@@ -9,15 +9,19 @@ from typing import Any
 
 import numpy as np
 
+from pnmold.errors import SolveError
 from pnmold.recording import Recording
 
 from . import explain
-from .data import DataSet, build_dataset
+from .calibrate import calibration_notes, calibration_parameters, check_material, modulus_pinned
+from .data import MODEL_FORM_SHARE, DataSet, build_dataset
 from .decide import Candidate, Decision, decide, excess_sigma
 from .fitting import Fitter, Forward, zscores
 from .locate import locate
 
 SCHEMA = "pnmold.diagnosis/1"
+#: the share of rows beyond the FE's characterisation above which a diagnosis is refused (assumed)
+REFUSE_BEYOND_FE = 0.2
 UNITS = {"tip_x_mm": "mm", "tip_z_mm": "mm", "volume_ml": "mL", "force_n": "N", "pressure_kpa": "kPa",
          "bend_angle_deg": "deg", "flow_slpm": "SLPM", "pressure_far_kpa": "kPa"}
 
@@ -56,17 +60,37 @@ def _full_z(fitter: Fitter, c: Candidate) -> np.ndarray:
 
 
 def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forward: Forward,
-             effects: list, *, seed: int = 0) -> Diagnosis:
+             effects: list, *, seed: int = 0, reach: dict[str, Any] | None = None,
+             model_form_share: float = MODEL_FORM_SHARE) -> Diagnosis:
     """Calibrate, locate, rank, fit, accept; ``effects`` are catalogue entries to consider
-    (those whose kinds include a recorded kind)."""
+    (those whose kinds include a recorded kind). ``reach``: how far the model's FE
+    characterisation went (``max_pressure_kpa``, ``full_bend_pressure_kpa``, ``reason``), to say
+    where the answer rests on extrapolation (and refuse it when most of it does).
+    ``model_form_share``: the model's own form error as a share of each observable's range, the
+    noise floor of a recording without repeated cycles (:data:`pnmold.diagnose.data.MODEL_FORM_SHARE`)."""
     t0 = time.perf_counter()
     kinds = {r.kind for r in recordings}
     effects = [e for e in effects if kinds & set(e.kinds)]
-    nominal = forward({}, {})
-    data = build_dataset(list(recordings), nominal)
-    fitter = Fitter(data, forward)
-    decision = decide(fitter, effects, seed=seed)
+    frame = any(r.kind == "bending" and r.measurement.tip_origin == "camera" for r in recordings)
+    scale, check, left_out = 1.0, None, {}
+    for _ in range(3):  # as it is; about the material the recordings need; without the rows out of reach
+        start = {} if scale == 1.0 else {"modulus_scale": scale}
+        data = build_dataset(list(recordings), _prediction(forward, recordings, start), model_form_share, left_out)
+        fitter = Fitter(data, forward)
+        calibration = calibration_parameters(scale, frame)
+        decision = decide(fitter, effects, seed=seed, calibration=calibration)
+        if check is None and modulus_pinned(decision, calibration):  # not a batch of rubber
+            check = check_material(fitter, frame, design_entry.get("material") or "rubber")
+            if not check.in_window:
+                scale = check.scale
+                continue
+        out_of_reach = _out_of_reach(decision.final.fit.predictions, data)
+        if not out_of_reach:
+            break
+        left_out = {i: left_out.get(i, np.zeros(len(recordings[i]), bool)) | m for i, m in out_of_reach.items()}
     base, final = decision.baseline, decision.final
+    notes = [*calibration_notes(final, calibration, check), *explain.left_out(recordings, left_out),
+             *_extrapolation(final.fit.predictions, data, reach)]
     mismatch = locate(data, by_series(data, _full_z(fitter, base)))
     observable = mismatch[0]["observable"] if mismatch else data.series[0].observable
     unit = UNITS.get(observable, "")
@@ -100,6 +124,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         summary = explain.nothing_missing(fit["heldout_rmse_after"], unit, excess)
     else:
         summary = " ".join(m["explanation"] for m in missing)
+    summary = " ".join([explain.calibrated(final.fit.values), *notes, summary])
     doc = {
         "schema": SCHEMA,
         "design": design_entry,
@@ -107,7 +132,11 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
                         "conversions": dict(r.conversions)} for r in recordings],
         "baseline": {"calibrated": {k: round(v, 6) for k, v in base.fit.values.items()},
                      "rmse": fit["rmse_before"], "heldout_rmse": fit["heldout_rmse_before"]},
+        "calibration": {"final": {k: round(v, 6) for k, v in final.fit.values.items()
+                                  if k in {p.key for p in calibration}},
+                        "material_check": None if check is None else check.as_json(), "notes": notes},
         "noise": {s.name: s.sigma for s in data.series},
+        "noise_parts": {s.name: {"measurement": s.measurement, "model_form": s.model_form} for s in data.series},
         "mismatch": mismatch,
         "missing_physics": missing,
         "unexplained": bool(decision.unexplained),
@@ -119,6 +148,49 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         "seconds": round(time.perf_counter() - t0, 3),
     }
     return Diagnosis(doc, data, decision, time.perf_counter() - t0)
+
+
+def _prediction(forward: Forward, recordings: Sequence[Recording], calibration: dict[str, float]
+                ) -> list[dict[str, np.ndarray]]:
+    """The model's prediction to judge the noise against; where it has none (no equilibrium), the
+    data's own curve stands in (the noise then also holds its curvature: an overestimate)."""
+    try:
+        return forward({}, calibration)
+    except SolveError:
+        return [{k: np.zeros(len(r)) for k in r.columns} for r in recordings]
+
+
+def _out_of_reach(predictions: list[dict[str, np.ndarray]], data: DataSet) -> dict[int, np.ndarray]:
+    """Recording index -> the kept rows where the model has no equilibrium (NaN: past its limit point)."""
+    out: dict[int, np.ndarray] = {}
+    for s in data.series:
+        f = np.asarray(predictions[s.recording][s.observable], float)
+        bad = np.zeros(f.size, bool)
+        bad[s.rows] = ~np.isfinite(f[s.rows])
+        if bad.any():
+            out[s.recording] = out.get(s.recording, np.zeros(f.size, bool)) | bad
+    return out
+
+
+def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach: dict[str, Any] | None
+                   ) -> list[str]:
+    """Where the final model reads its FE law beyond the pressures the FE solved: said, and refused
+    (SolveError) when that is most of the data and the FE stopped short of full bend."""
+    kept = {s.recording: s.rows for s in data.series}
+    beyond = sum(int(np.sum(np.asarray(predictions[i]["beyond_fe"])[rows])) for i, rows in kept.items()
+                 if "beyond_fe" in predictions[i])
+    total = sum(rows.size for rows in kept.values())
+    if not beyond or reach is None:
+        return []
+    top = reach["max_pressure_kpa"]
+    short = reach.get("full_bend_pressure_kpa") is None and reach.get("reason")
+    if short and beyond > REFUSE_BEYOND_FE * total:
+        raise SolveError(f"{beyond} of {total} rows need the model beyond {top:.4g} kPa, where the FE's "
+                         f"characterisation of the design stopped ({reach['reason']}): the answer would rest on "
+                         f"extrapolation. Check the design (the FE must reach the recordings' bend) before diagnosing.")
+    return [f"{beyond} of {total} rows lie beyond the pressure the FE characterised ({top:.4g} kPa"
+            + (f", where its solve stopped: {reach['reason']}" if short else ", past full bend") + "): the model "
+            "extrapolates its law there."]
 
 
 def _candidate_entry(c: Candidate) -> dict[str, Any]:

@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fitting import CALIBRATION, Fit, Fitter, Hypothesis, Parameter
+from .calibrate import calibration_parameters
+from .fitting import Fit, Fitter, Hypothesis, Parameter
 
 #: held-out chi-square gain needed to accept an effect (a 1-dof chi-square difference of 50
 #: is a 7-sigma event by chance)
@@ -32,6 +33,10 @@ EXCESS_SIGMA = 6.0
 #: share of bootstrap resamples the accepted effect must win
 STABILITY = 0.7
 BOOTSTRAP = 12
+#: the smallest value of an effect worth naming where 0.5 % of its range is too coarse: a dead volume's
+#: bounds reach a piston rig's air column (500 mL), yet a 1 mL fitting counts (assumed: 0.005 of the
+#: 20 mL the bounds of fittings and sensor tees were)
+RESOLUTION = {"dead_volume": 0.1}
 #: multi-start points of an effect's main parameter, as a share of its range
 STARTS = (0.03, 0.15, 0.4, 0.8)
 #: extra parameters fitted besides an effect's main one (the others stay at their catalogue
@@ -76,10 +81,6 @@ def excess_sigma(chi2: float, n: int) -> float:
     return (chi2 - n) / np.sqrt(2.0 * max(n, 1))
 
 
-def calibration_parameters() -> tuple[Parameter, ...]:
-    return tuple(Parameter(k, s, lo, hi, calibration=True) for k, s, lo, hi in CALIBRATION)
-
-
 def effect_parameters(effect) -> tuple[Parameter, ...]:
     """The fitted parameters of a catalogue effect: its main one and its extras."""
     lo, hi = effect.bounds
@@ -92,8 +93,9 @@ def effect_parameters(effect) -> tuple[Parameter, ...]:
     return tuple(params)
 
 
-def hypothesis(effects: list) -> Hypothesis:
-    params = list(calibration_parameters())
+def hypothesis(effects: list, calibration: tuple[Parameter, ...] | None = None) -> Hypothesis:
+    """The nominal model (``calibration``: its recalibrated parameters) plus ``effects``."""
+    params = list(calibration if calibration is not None else calibration_parameters())
     for e in effects:
         params.extend(effect_parameters(e))
     return Hypothesis(tuple(e.name for e in effects), tuple(params))
@@ -140,7 +142,8 @@ def compare(cand: Candidate, ref: Candidate, blocks: np.ndarray) -> None:
 
 
 def check_plausible(cand: Candidate, effect_names: tuple[str, ...]) -> None:
-    """Main parameters inside the bounds, off the upper bound, and clearly above zero."""
+    """Main parameters inside the bounds, off the upper bound, and clearly above zero (beyond twice
+    their fold spread and the effect's resolution)."""
     unc = cand.uncertainty()
     for p, v in zip(cand.fit.hypothesis.parameters, cand.fit.x, strict=True):
         if p.calibration or p.key not in effect_names:
@@ -149,7 +152,7 @@ def check_plausible(cand: Candidate, effect_names: tuple[str, ...]) -> None:
         if v >= p.high - 0.01 * span:
             cand.plausible = False
             cand.notes.append(f"{p.key} pinned at its upper bound {p.high:g}")
-        elif v - p.low < 2.0 * max(unc[p.key], 0.005 * span):
+        elif v - p.low < 2.0 * max(unc[p.key], RESOLUTION.get(p.key, 0.005 * span)):
             cand.plausible = False
             cand.notes.append(f"{p.key} = {v:.3g} not clearly above {p.low:g} (fold spread {unc[p.key]:.2g})")
 
@@ -177,12 +180,15 @@ class Decision:
     unexplained: bool
 
 
-def decide(fitter: Fitter, effects: list, seed: int = 0) -> Decision:
-    """The full search over ``effects`` (catalogue entries)."""
+def decide(fitter: Fitter, effects: list, seed: int = 0, calibration: tuple[Parameter, ...] | None = None
+           ) -> Decision:
+    """The full search over ``effects`` (catalogue entries), the nominal model recalibrated with
+    ``calibration`` (default: the modulus within its window)."""
+    calibration = calibration if calibration is not None else calibration_parameters()
     rng = np.random.default_rng(seed)
     blocks = fitter.data.blocks
-    base = judge(fitter, hypothesis([]), [np.array([p.start for p in calibration_parameters()])])
-    singles = [judge(fitter, h, starts_for(h, base.fit.x)) for h in (hypothesis([e]) for e in effects)]
+    base = judge(fitter, hypothesis([], calibration), [np.array([p.start for p in calibration])])
+    singles = [judge(fitter, h, starts_for(h, base.fit.x)) for h in (hypothesis([e], calibration) for e in effects)]
     for c in singles:
         compare(c, base, blocks)
         check_plausible(c, c.fit.hypothesis.effects)
@@ -195,7 +201,7 @@ def decide(fitter: Fitter, effects: list, seed: int = 0) -> Decision:
         if _acceptable(best):
             accepted.append(best)
             final = best
-            final = _try_pairs(fitter, best, effects, blocks) or final
+            final = _try_pairs(fitter, best, effects, blocks, calibration) or final
             if final is not best:
                 accepted.append(final)
     unexplained = excess_sigma(final.heldout_chi2, final.heldout_z.size) > EXCESS_SIGMA and (
@@ -213,7 +219,8 @@ def _acceptable(c: Candidate) -> bool:
     return ok
 
 
-def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarray) -> Candidate | None:
+def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarray,
+               calibration: tuple[Parameter, ...]) -> Candidate | None:
     """A second effect on top of ``first``, accepted by the same rules against ``first``."""
     if excess_sigma(first.heldout_chi2, first.heldout_z.size) <= EXCESS_SIGMA:
         return None
@@ -222,7 +229,7 @@ def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarr
     for e in effects:
         if e.name in named:
             continue
-        h = hypothesis([*[x for x in effects if x.name in named], e])
+        h = hypothesis([*[x for x in effects if x.name in named], e], calibration)
         c = judge(fitter, h, starts_for(h, first.fit.x))
         compare(c, first, blocks)
         check_plausible(c, h.effects)

@@ -39,6 +39,28 @@ def explanation(effect, values: dict[str, float], spread: dict[str, float], mism
             f"error fell from {rmse_before:.3g} to {rmse_after:.3g} {unit}.")
 
 
+def calibrated(values: dict[str, float]) -> str:
+    """The calibrated nominal values, in words (always shown: the answer rests on them)."""
+    parts = [f"the rubber's modulus x {values['modulus_scale']:.3g} of the design's"]
+    if "frame_dx_mm" in values:
+        parts.append(f"the camera frame offset ({values['frame_dx_mm']:.3g}, {values['frame_dz_mm']:.3g}) mm and "
+                     f"turned {values['frame_rotation_deg']:.3g} deg")
+    return "Calibrated: " + "; ".join(parts) + "."
+
+
+def left_out(recordings, masks: dict) -> list[str]:
+    """Plain words on the rows left out because the model has no equilibrium there."""
+    out = []
+    for i, mask in sorted(masks.items()):
+        rec = recordings[i]
+        p = np.asarray(rec.columns["pressure_kpa"], float)[mask]
+        why = ("the blocked tip slides off the frictionless plane" if rec.kind == "force"
+               else "past the model's limit point")
+        out.append(f"The model has no equilibrium for {int(mask.sum())} row(s) of {rec.path} ({rec.kind}, "
+                   f"{p.min():.4g}-{p.max():.4g} kPa: {why}); they are left out of the comparison.")
+    return out
+
+
 def nothing_missing(rmse: float, unit: str, excess: float) -> str:
     return (f"Nothing significant is missing: after recalibrating the modulus, the model's held-out "
             f"error ({rmse:.3g} {unit}) is what the noise in the recordings allows "

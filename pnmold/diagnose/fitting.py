@@ -30,12 +30,6 @@ KEPT_PREDICTIONS = 512
 #: ``effects`` holds ``name`` -> value and ``name.param`` -> value (CONTRACTS.md §5)
 Forward = Callable[[dict[str, float], dict[str, float]], list[dict[str, np.ndarray]]]
 
-#: the nominal parameters recalibrated before any physics is blamed: a plain stiffness
-#: error (another batch of rubber, a thinner wall) scales the modulus (bounds assumed:
-#: +-40% covers batch-to-batch and cure variation of platinum silicones)
-CALIBRATION = (("modulus_scale", 1.0, 0.6, 1.6),)
-
-
 @dataclass(frozen=True)
 class Parameter:
     key: str  # "modulus_scale", "gravity", "viscoelasticity.tau_s"
@@ -81,7 +75,7 @@ def zscores(data: DataSet, predictions: list[dict[str, np.ndarray]]) -> np.ndarr
     """(measured - predicted) / noise for every row of every series, concatenated."""
     out = []
     for s in data.series:
-        f = np.asarray(predictions[s.recording][s.observable], float)
+        f = np.asarray(predictions[s.recording][s.observable], float)[s.rows]
         out.append((s.y - f) / s.sigma)
     return np.concatenate(out)
 

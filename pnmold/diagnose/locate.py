@@ -51,9 +51,10 @@ def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3) -> list
     found = []
     for s, z in zip(data.series, z_by_series, strict=True):
         axis, unit, x = _axis(data, s.recording)
+        x = x[s.rows]  # the rows the series kept
         span = float(np.ptp(x)) or 1.0
         for labels, mask in _groups(data, s.recording):
-            idx = np.where(mask)[0]
+            idx = np.where(mask[s.rows])[0]
             if idx.size == 0:
                 continue
             for width in WIDTHS:

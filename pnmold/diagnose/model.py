@@ -39,7 +39,7 @@ def rom_forward(design: Design, recordings: Sequence[Recording]) -> Forward:
     off = {name: 0.0 for name, e in EFFECTS.items() if "rom" in e.models}
 
     def forward(effects: dict[str, float], calibration: dict[str, float]) -> list[dict[str, np.ndarray]]:
-        return [rom.run(p, {**off, **effects}, None, calibration) for p in protocols]
+        return [rom.run(p, {**off, **effects}, None, calibration, partial=True) for p in protocols]
 
     return forward
 

@@ -40,15 +40,15 @@ def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = Non
         rec = data.recordings[s.recording]
         x, xlabel = _x(rec)
         top, bottom = axes[0, j], axes[1, j]
-        top.plot(x, s.y, ".", ms=3, color="0.3", label="recording")
+        top.plot(x[s.rows], s.y, ".", ms=3, color="0.3", label="recording")
         top.plot(x, base[s.recording][s.observable], "--", color="tab:red", lw=1.2, label="baseline (calibrated)")
         if dec.accepted:
             top.plot(x, final[s.recording][s.observable], "-", color="tab:blue", lw=1.2, label=f"with {label}")
         top.set_title(f"{Path(rec.path).name}: {s.observable}", fontsize=9)
         top.set_ylabel(s.observable)
-        bottom.plot(x, zb[j] * s.sigma, ".", ms=3, color="tab:red", label="baseline")
+        bottom.plot(x[s.rows], zb[j] * s.sigma, ".", ms=3, color="tab:red", label="baseline")
         if dec.accepted:
-            bottom.plot(x, zf[j] * s.sigma, ".", ms=3, color="tab:blue", label="improved")
+            bottom.plot(x[s.rows], zf[j] * s.sigma, ".", ms=3, color="tab:blue", label="improved")
         bottom.axhline(0, color="0.5", lw=0.8)
         bottom.fill_between([x.min(), x.max()], -2 * s.sigma, 2 * s.sigma, color="0.85", label="2 x noise")
         for m in diag.doc["mismatch"]:

@@ -8,12 +8,14 @@ from pathlib import Path
 from pnmold.design import Design
 
 from .core import Diagnosis, diagnose
+from .data import MODEL_FORM_SHARE
 from .model import diagnosis_effects, diagnosis_forward, read_all
 
 
 def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: int = 0,
                         json_path: str | Path | None = None, report_dir: str | Path | None = None,
-                        progress: Callable[[str], None] | None = None) -> Diagnosis:
+                        progress: Callable[[str], None] | None = None,
+                        model_form_share: float = MODEL_FORM_SHARE) -> Diagnosis:
     """Read and check every recording (a damaged one stops the run before anything is computed
     or written), characterise the design in the FE once (cached; templates ship theirs; its
     stages go to ``progress``), diagnose, and write the JSON and the report folder."""
@@ -23,9 +25,11 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     from .output import write_json_doc, write_report
 
     recordings = read_all(paths)
-    characterise(design, progress=progress)
+    c = characterise(design, progress=progress)
+    reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
+             "reason": c.reason}
     diag = diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
-                    diagnosis_effects(recordings), seed=seed)
+                    diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share)
     if json_path:
         write_json_doc(diag, json_path)
     if report_dir:

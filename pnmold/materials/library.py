@@ -165,6 +165,11 @@ def list_materials() -> list[Material]:
     return list(_MATERIALS)
 
 
+def find_material(name: str) -> Material | None:
+    """A material by name (as :func:`get_material`), or None when the library has none of that name."""
+    return _BY_KEY.get(_key(name))
+
+
 def get_material(name: str) -> Material:
     """A material by name, ignoring case, spaces and dashes ("ecoflex-00-30" works)."""
     try:

@@ -17,6 +17,7 @@ import numpy as np
 
 from pnmold.conventions import NO_GRAVITY, ORIENTATIONS, QUASI_STATIC_KINDS
 from pnmold.errors import DesignError
+from pnmold.measurement import Measurement
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,6 +31,7 @@ class Protocol:
     cycle: np.ndarray | None = None
     phase: np.ndarray | None = None
     rate_kpa_per_s: float | None = None
+    measurement: Measurement = Measurement()  # how the recording reads the model (pnmold.measurement)
 
     def __post_init__(self) -> None:
         if self.kind not in QUASI_STATIC_KINDS:
@@ -95,7 +97,7 @@ class Protocol:
         return cls(recording.kind, np.asarray(cols["pressure_kpa"], float), recording.orientation,
                    None if get("time_s") is None else np.asarray(get("time_s"), float),
                    None if get("cycle") is None else np.asarray(get("cycle"), int),
-                   get("phase"), recording.rate_kpa_per_s)
+                   get("phase"), recording.rate_kpa_per_s, recording.measurement)
 
     def times_s(self) -> np.ndarray | None:
         """Time of each row: ``time_s``, else pressure travelled / rate, else None (quasi-static)."""

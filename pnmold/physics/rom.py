@@ -43,16 +43,21 @@ from pnmold.physics.characterise import characterise
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.identify import chamber_bounds_mm
 from pnmold.physics.protocol import Protocol
+from pnmold.physics.reading import FRAME, read_bend, read_tip, read_volume
 from pnmold.physics.response import responses, solve_stiffened
-from pnmold.physics.rod import RodLoads, solve_rod
+from pnmold.physics.rod import RodLoads, RodState, solve_rod
 from pnmold.physics.section import rod_loads, slab_flexibility
 
-CALIBRATION = {"modulus_scale": (1.0, (0.2, 5.0))}  # name -> (nominal, bounds)
+#: name -> (nominal, bounds): the rubber's modulus as a multiple of the design's (a wrong material shows as
+#: 10x, assumed limits), and a camera frame's offset and rotation (:mod:`.reading`)
+CALIBRATION = {"modulus_scale": (1.0, (0.02, 50.0)), **FRAME}
 #: strain of the rubber that carries the bend, as a fraction of the FE's peak principal strain
 #: (equibiaxial): fitted to the FE with Yeoh C20 + 0.05 MPa (fPN, coarse mesh), whose pressure
 #: for a given bend rose 1, 4 and 8 % at 11, 23 and 34 kPa (``benchmarks/rom.py --fe-effects``);
 #: the peak strain itself (fraction 1) would have predicted 10 times that
 REPRESENTATIVE_STRAIN = 0.12
+#: a row is beyond the FE's characterisation when its effective pressure passes the FE's last one by this share
+BEYOND_FE_SHARE = 0.01
 #: layer compliance: gain and strain scale of the lost stiffness share (see ``layer_softening``)
 LAYER_SHARE_GAIN, LAYER_STRAIN_SCALE = 0.75, 0.2
 
@@ -132,10 +137,13 @@ class ReducedModel:
         return self._onset[gap_scale]
 
     def _layer_share(self, compliance_mm_per_n: float) -> float:
-        """The paper's share of the bottom's stretching stiffness lost: k_r/(k_p + k_r) - (same at 0),
-        k_p = 1/(1/(E t) + c) the paper's, k_r = 6 C10 x bottom layer the rubber's (N/mm)."""
+        """The share of the bottom's stretching stiffness (N/mm) an added layer compliance c loses. With
+        paper: k_r/(k_p' + k_r) - k_r/(k_p + k_r), k_p = E t the paper's, k_p' = 1/(1/k_p + c), k_r = 6 C10
+        x thickness the bottom rubber's; without: the rubber limits the strain alone, 1 - k_r'/k_r."""
         d = self.design
-        rubber = 6.0 * d.material.c10_mpa * d.bottom_layer.thickness_mm
+        rubber = 6.0 * d.bottom_material.c10_mpa * d.bottom_layer.thickness_mm
+        if not d.paper.present:
+            return 1.0 - 1.0 / (1.0 + compliance_mm_per_n * rubber)
         paper = d.paper.modulus_mpa * d.paper.thickness_mm
         return rubber / (1.0 / (1.0 / paper + compliance_mm_per_n) + rubber) - rubber / (paper + rubber)
 
@@ -199,12 +207,16 @@ class ReducedModel:
     # -- the run ------------------------------------------------------------------------------------
     def run(self, protocol: Protocol, effects: Mapping[str, float] | None = None,
             params: Mapping[str, float] | None = None,
-            calibration: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
-        """Every protocol row's observables (recording columns of its kind, and more).
+            calibration: Mapping[str, float] | None = None, partial: bool = False) -> dict[str, np.ndarray]:
+        """Every protocol row's observables (recording columns of its kind, and more), read as the
+        protocol's recording measures them (:mod:`.reading`); ``beyond_fe``: the rows whose
+        pressure lies beyond what the FE characterised (the law is extrapolated there).
 
         ``effects``: values by name (and ``NAME.PARAM``), unnamed ones at their catalogue
         default (gravity 1 g, the rest off); ``params``: more ``NAME.PARAM`` values;
-        ``calibration``: nominal parameters (``modulus_scale``, 1 = the design's rubber)."""
+        ``calibration``: nominal parameters (``modulus_scale``, 1 = the design's rubber; a camera
+        frame's offset and rotation). ``partial``: rows without an equilibrium (past a limit point)
+        come back as NaN instead of raising :class:`SolveError`."""
         values = fx.check_effects({**(effects or {}), **(params or {})}, model="rom")
         scale = _calibration(calibration or {})["modulus_scale"]
 
@@ -240,7 +252,7 @@ class ReducedModel:
                 dhinge[over] /= 1.0 + k_contact
         gxz = self._gravity_xz(protocol.orientation, v("gravity"))
         try:
-            state = solve_rod(angle, length, comp, self.loads, gxz, 0.0 if protocol.kind == "force" else None)
+            state = self._equilibria(angle, length, comp, gxz, 0.0 if protocol.kind == "force" else None, partial)
         except RodError as err:
             at = ", ".join(f"{q:.4g}" for q in np.append(p, 0.0)[err.rows][:5])
             why = (": past a limit point the blocked tip slides back on the frictionless plane"
@@ -250,12 +262,44 @@ class ReducedModel:
         tip = state.nodes_mm[:, -1]
         bend = np.degrees(state.angle_rad[:, -1]) + _interp(t.p, t.offset_deg, p_bend)
         volume = _interp(t.p, t.volume_ml, p_vol) + np.sum(state.moment_n_mm * dhinge, axis=1) / (stiff * ratio)
-        out = {"pressure_kpa": p.copy(), "tip_x_mm": tip[:-1, 0], "tip_z_mm": tip[:-1, 1],
-               "bend_angle_deg": bend[:-1], "cavity_volume_ml": volume[:-1], "volume_ml": volume[:-1] - volume[-1],
-               "max_principal_stretch": _interp(t.p, t.stretch, p_vol[:-1])}
+        m, cal = protocol.measurement, _calibration(calibration or {})
+        tip_x, tip_z = read_tip(tip[:-1, 0], tip[:-1, 1], (tip[-1, 0], tip[-1, 1]), m, cal)
+        out = {"pressure_kpa": p.copy(), "tip_x_mm": tip_x, "tip_z_mm": tip_z,
+               "bend_angle_deg": read_bend(bend[:-1], m, self.design.length_mm - self.design.clamp_end_mm),
+               "cavity_volume_ml": volume[:-1],
+               "volume_ml": read_volume(volume[:-1] - volume[-1], volume[-1], p, m, v("dead_volume")),
+               "max_principal_stretch": _interp(t.p, t.stretch, p_vol[:-1]),
+               "beyond_fe": p_bend[:-1] > t.p[-1] * (1.0 + BEYOND_FE_SHARE)}
         if protocol.kind == "force":
             out["force_n"] = state.force_n[:-1]
         return out
+
+
+    def _equilibria(self, angle: np.ndarray, length: np.ndarray, comp: np.ndarray, gxz: tuple[float, float],
+                    plane: float | None, partial: bool) -> RodState:
+        """The rod's equilibrium of every row; with ``partial`` the rows that have none are solved
+        without and come back as NaN (the last row, the unloaded reference, must have one)."""
+        rows = angle.shape[0]
+        ok = np.ones(rows, bool)
+        while True:
+            try:
+                state = solve_rod(angle[ok], length[ok], comp[ok], self.loads, gxz, plane)
+                break
+            except RodError as err:
+                failed = np.flatnonzero(ok)[err.rows]
+                if not partial or failed[-1] == rows - 1:
+                    raise RodError(failed) from None
+                ok[failed] = False
+        if ok.all():
+            return state
+
+        def spread(a: np.ndarray) -> np.ndarray:
+            out = np.full((rows, *a.shape[1:]), np.nan)
+            out[ok] = a
+            return out
+
+        return RodState(spread(state.angle_rad), spread(state.nodes_mm), spread(state.moment_n_mm),
+                        spread(state.force_n), state.iterations)
 
 
 def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:

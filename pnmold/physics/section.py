@@ -103,8 +103,10 @@ def rod_loads(design: Design, nodes_x_mm: np.ndarray):
     vol = np.maximum(got["volume_mm3"], 1e-12)
     span = np.diff(x)
     frac = np.clip((got["x_moment_mm4"] / vol - x[:-1]) / span, 0.0, 1.0)
-    weight = got["volume_mm3"] * design.material.density_g_per_ml * G_STANDARD_N_PER_MM3_PER_G_PER_ML
-    return RodLoads(weight, frac, got["z_moment_mm4"] / vol)
+    top, bottom = design.material.density_g_per_ml, design.bottom_material.density_g_per_ml
+    mass = top * got["top_mm3"] + bottom * (got["volume_mm3"] - got["top_mm3"])  # g/mL x mm^3
+    z_mass = top * got["top_z_mm4"] + bottom * (got["z_moment_mm4"] - got["top_z_mm4"])
+    return RodLoads(mass * G_STANDARD_N_PER_MM3_PER_G_PER_ML, frac, z_mass / np.maximum(mass, 1e-12))
 
 
 def slab_flexibility(design: Design, nodes_x_mm: np.ndarray) -> np.ndarray:

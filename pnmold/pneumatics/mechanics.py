@@ -98,7 +98,7 @@ class BendingDynamics:
 
     @classmethod
     def from_design(cls, design, damping_ratio: float = DAMPING_RATIO) -> BendingDynamics:
-        return cls(design.elastomer_volume_mm3 * design.material.density_g_per_ml * 1e-6, design.length_mm * 1e-3,
+        return cls(design.elastomer_mass_g * 1e-3, design.length_mm * 1e-3,
                    pressure_moment_m3(design), damping_ratio)
 
     def inertia_kg_m2(self, theta_rad):

@@ -1,0 +1,107 @@
+"""The nominal parameters recalibrated before any physics is blamed (DIAGNOSE.md: calibrate first).
+
+- **The rubber's modulus.** A plain stiffness error (another batch of rubber, a thinner wall)
+  scales the modulus within +-40 % (``WINDOW``, assumed: batch-to-batch and cure variation of
+  platinum silicones). A *wrong material* does not: a segment cast in a harder silicone than
+  the design names needs ten times the modulus. So the modulus is first found over a wide
+  range (``WIDE``, on a log grid, then refined); when it falls outside the window, the
+  diagnosis says so in plain words (the material is the first thing to check, not physics)
+  and judges the effects around the modulus found, with the usual window about it.
+- **The camera frame.** A recording whose tip is measured in a frame of its own (metadata
+  ``tip_origin: camera``) calibrates the frame's offset and rotation with the modulus
+  (:data:`pnmold.physics.reading.FRAME`): registration, never an effect.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pnmold.physics.reading import FRAME
+
+from .fitting import Fitter, Hypothesis, Parameter
+
+#: the modulus window about the nominal: a stiffness error, not a different material (assumed)
+WINDOW = (0.6, 1.6)
+#: where a wrong material is looked for (assumed: Ecoflex 00-10 to a Shore A 40 rubber is ~50x)
+WIDE = (0.02, 50.0)
+WIDE_POINTS = 43  # log grid: about 10 % apart
+
+
+@dataclass(frozen=True)
+class MaterialCheck:
+    """The modulus the recordings need (``scale``, a multiple of the design's) and what it means."""
+
+    scale: float
+    in_window: bool
+    message: str | None
+
+    def as_json(self) -> dict:
+        return {"modulus_scale": round(self.scale, 6), "window": list(WINDOW), "in_window": self.in_window,
+                "message": self.message}
+
+
+def frame_parameters() -> tuple[Parameter, ...]:
+    return tuple(Parameter(k, nominal, lo, hi, calibration=True) for k, (nominal, (lo, hi)) in FRAME.items())
+
+
+def calibration_parameters(nominal_scale: float = 1.0, frame: bool = False) -> tuple[Parameter, ...]:
+    """The modulus (the window about ``nominal_scale``) and, for a camera frame, its registration."""
+    lo, hi = WINDOW
+    modulus = Parameter("modulus_scale", nominal_scale, lo * nominal_scale, hi * nominal_scale, calibration=True)
+    return (modulus, *(frame_parameters() if frame else ()))
+
+
+def check_material(fitter: Fitter, frame: bool, material: str) -> MaterialCheck:
+    """The best modulus over :data:`WIDE` (the effects off), refined; a message when it is outside the
+    window: which way the model is off, by how much, and what to check."""
+    h = Hypothesis((), calibration_parameters(1.0, frame))
+    rest = np.array([p.start for p in h.parameters[1:]])
+    grid = np.geomspace(*WIDE, WIDE_POINTS)
+    chi2 = [float(np.sum(fitter.z(h, np.concatenate([[s], rest])) ** 2)) for s in grid]
+    best = float(grid[int(np.argmin(chi2))])
+    near = Hypothesis((), calibration_parameters(best, frame))
+    wide = Hypothesis((), tuple(Parameter(p.key, p.start, max(p.low, WIDE[0]), min(p.high, WIDE[1]), True)
+                                for p in near.parameters))
+    scale = float(fitter.fit(wide, starts=[np.array([p.start for p in wide.parameters])]).x[0])
+    if WINDOW[0] <= scale <= WINDOW[1]:
+        return MaterialCheck(scale, True, None)
+    way = "stiffer" if scale > 1 else "softer"
+    factor = scale if scale > 1 else 1 / scale
+    return MaterialCheck(scale, False, (
+        f"The recordings need a rubber {factor:.3g} times {way} than the design's {material} (modulus scale "
+        f"{scale:.3g}, outside the {WINDOW[0]:g}-{WINDOW[1]:g} a batch or cure varies by): check the material "
+        f"first (its name, Shore hardness, mix ratio, cure), then the wall thicknesses. The effects below are "
+        f"judged about this modulus."))
+
+
+def _pinned(value: float, p: Parameter) -> str | None:
+    span = p.high - p.low
+    return "lower" if value <= p.low + 0.01 * span else "upper" if value >= p.high - 0.01 * span else None
+
+
+def modulus_pinned(decision, calibration: tuple[Parameter, ...]) -> bool:
+    """The modulus sits at a bound of its window in the final model and in the best candidate's fit
+    too: more than a batch of rubber varies, and no catalogued effect frees it (an effect that does,
+    even one not accepted, is the likelier story than another rubber: DIAGNOSE.md's trap)."""
+    fits = [decision.final, *decision.ranked[:1]]
+    return all(_pinned(c.fit.values["modulus_scale"], calibration[0]) is not None for c in fits)
+
+
+def calibration_notes(final, calibration: tuple[Parameter, ...], check: MaterialCheck | None) -> list[str]:
+    """Plain words on the calibration: a wrong material, and a value pinned at its bound (which way
+    and by how much the model is off, and what to check) instead of physics."""
+    notes = [check.message] if check is not None and check.message else []
+    for p in calibration:
+        v = final.fit.values[p.key]
+        side = _pinned(v, p)
+        if side is not None:
+            if p.key == "modulus_scale":
+                notes.append(f"The modulus calibration is pinned at its {side} bound ({v:.3g} x the design's): the "
+                             f"recordings want a {'softer' if side == 'lower' else 'stiffer'} actuator than a batch "
+                             f"of rubber varies by; check the material and the wall thicknesses before any physics.")
+            else:
+                notes.append(f"The camera frame's {p.key} is pinned at its {side} bound ({v:.3g}): check the "
+                             f"recording's axes (x along the actuator, z up from its bottom face) and units.")
+    return notes

@@ -1,0 +1,86 @@
+"""How a recording was measured: the frame of its tip, the length its bend angle was computed
+over, and the rig of a pressure-volume test (recording metadata, docs/recording-format.md).
+
+A lab's camera does not sit at pnmold's clamp, a lab computes a bend angle from a curvature
+over its own length, and a piston also compresses the air between it and the actuator. These
+are facts of the measurement, not physics the model lacks: the diagnosis maps its predictions
+through them (:mod:`pnmold.diagnose.registration`) and calibrates what is unknown (a camera's
+offset and rotation) with the modulus, never blaming them on an effect.
+
+Defaults are pnmold's own frame and the supplement's P-V test (water from a syringe pump).
+A leaf module: it imports nothing of pnmold but the errors.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from pnmold.errors import RecordingError
+
+#: where a recorded tip is measured from
+TIP_ORIGINS = ("clamp", "rest", "camera")
+#: how a P-V test drives the actuator: a volume (piston, syringe) or a pressure (regulator)
+RIGS = ("volume", "pressure")
+#: what fills the rig and the actuator in a P-V test
+MEDIA = ("water", "air")
+
+#: metadata key -> (recording kinds that read it, what it says), for the docs and the templates
+KEYS = {
+    "tip_origin": (("bending",), "where the recorded tip is measured from: clamp (pnmold's frame: x along the "
+                   "actuator from the clamped end, z up from the bottom face; the default) | rest (the tip's own "
+                   "rest position at 0 kPa, gravity included: recorded = tip - tip at rest) | camera (a frame "
+                   "of its own: its offset and rotation are calibrated with the modulus)"),
+    "bending_length_mm": (("bending",), "the length the bend angle was computed over (angle = curvature x "
+                          "length, constant curvature assumed; default the actuator's free length, from the "
+                          "clamp to the tip)"),
+    "rig": (("pv",), "volume (a piston or syringe pump sets the volume; the default) | pressure (a regulator sets "
+            "the pressure and volume_ml is the gas metered in, in standard mL at 0 degC and 101.325 kPa)"),
+    "medium": (("pv",), "water (the supplement's hydraulic test; the default) | air"),
+    "air_column_ml": (("pv",), "known volume of air at atmospheric pressure between the piston (or meter) and "
+                      "the actuator, e.g. the tubing and the cylinder's dead space (default 0; an unknown one is "
+                      "what the dead_volume effect finds)"),
+}
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """What a recording's metadata says of how it was measured (see :data:`KEYS`)."""
+
+    tip_origin: str = "clamp"
+    bending_length_mm: float | None = None
+    rig: str = "volume"
+    medium: str = "water"
+    air_column_ml: float = 0.0
+
+    @property
+    def compresses_air(self) -> bool:
+        """The recorded volume includes the compression of gas (air in the rig and the cavity)."""
+        return self.medium == "air"
+
+
+def measurement_of(metadata: Mapping[str, str], path: str) -> Measurement:
+    """The :class:`Measurement` of a recording's metadata; RecordingError names the key."""
+
+    def choice(key: str, options: tuple[str, ...], default: str) -> str:
+        value = metadata.get(key, default).lower()
+        if value not in options:
+            raise RecordingError(path, 1, f"metadata {key} must be one of {', '.join(options)}, got {value!r}")
+        return value
+
+    def number(key: str, positive: bool) -> float | None:
+        if key not in metadata:
+            return None
+        try:
+            value = float(metadata[key])
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and (value > 0 if positive else value >= 0)):
+            raise RecordingError(path, 1, f"metadata {key} must be a number {'>' if positive else '>='} 0, "
+                                 f"got {metadata[key]!r}")
+        return value
+
+    return Measurement(choice("tip_origin", TIP_ORIGINS, "clamp"), number("bending_length_mm", True),
+                       choice("rig", RIGS, "volume"), choice("medium", MEDIA, "water"),
+                       number("air_column_ml", False) or 0.0)
