@@ -16,7 +16,7 @@ from pnmold.errors import SolveError
 from pnmold.fem import blocked_force_slope
 from pnmold.fem.linsolve import choose_linear_solver
 from pnmold.fsutil import write_bytes
-from pnmold.quickfe import FeRun, material_of, membrane_of
+from pnmold.quickfe import FeRun, material_of, membrane_of, regions_of
 from pnmold.tetmesh import TetMesh
 
 
@@ -53,7 +53,8 @@ def blocked_force_report(run: FeRun, n_points: int = 9) -> dict[str, Any]:
     gravity, from 0 kPa to the free curve's last pressure."""
     t0 = time.perf_counter()
     try:
-        slope = blocked_force_slope(run.mesh, material_of(run.design), membrane_of(run.design), gravity=run.gravity_g)
+        slope = blocked_force_slope(run.mesh, material_of(run.design), membrane_of(run.design), gravity=run.gravity_g,
+                                    regions=regions_of(run.design))
     except SolveError as err:
         return {"reason": f"blocked-force solve failed: {err}", "steps": []}
     top = run.solution.max_pressure_kpa

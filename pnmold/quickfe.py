@@ -24,7 +24,7 @@ from pnmold.design import Design
 from pnmold.effects import check_effects, value_of
 from pnmold.errors import DesignError, SolveError
 from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, solve_bending, solve_blocked_force
-from pnmold.tetmesh import MeshSize, TetMesh
+from pnmold.tetmesh import BOTTOM_LAYER, MeshSize, TetMesh
 
 log = logging.getLogger(__name__)
 
@@ -39,19 +39,30 @@ BUILD_OPTIONS = SolveOptions(max_angle_step_deg=70.0)
 FE_KINDS = ("bending", "force")
 
 
-def material_of(design: Design) -> Yeoh:
-    """The FE's elastomer; a library material's elongation at break ends the curve where
-    the largest stretch passes it (``Solution.stop == "stretch_limit"``)."""
+def _yeoh(m) -> Yeoh:
+    """A design's :class:`~pnmold.design.Material` as the FE's rubber; a library material's
+    elongation at break ends the curve where the largest stretch passes it
+    (``Solution.stop == "stretch_limit"``)."""
     from pnmold.errors import UsageError
     from pnmold.materials.library import get_material
 
-    m = design.material
     try:
         stretch = 1.0 + get_material(m.name).elongation_at_break
     except UsageError:  # not a library material: no stretch stop
         stretch = None
     return Yeoh(c10_mpa=m.c10_mpa, c20_mpa=m.c20_mpa, c30_mpa=m.c30_mpa,
                 density_g_per_ml=m.density_g_per_ml, stretch_at_break=stretch)
+
+
+def material_of(design: Design) -> Yeoh:
+    """The FE's elastomer (the top layer's, and the body's wherever no other is named)."""
+    return _yeoh(design.material)
+
+
+def regions_of(design: Design) -> dict[str, Yeoh]:
+    """Element sets of another rubber: the bottom layer when ``[layer_material]`` names one
+    (the mesh then has the ``bottom_layer`` region)."""
+    return {BOTTOM_LAYER: _yeoh(design.bottom_material)} if design.layer_material.name else {}
 
 
 def membrane_of(design: Design) -> Membrane | None:
@@ -140,7 +151,8 @@ def run_fe(design: Design, *, orientation: str = "chambers_up", effects: Mapping
         loads = {"max_pressure_kpa": QUICK_MAX_PRESSURE_KPA if max_pressure_kpa is None else max_pressure_kpa}
     solve = solve_blocked_force if kind == "force" else solve_bending
     try:
-        solution = solve(mesh, material_of(solved), membrane_of(solved), gravity=gravity, options=options, **loads)
+        solution = solve(mesh, material_of(solved), membrane_of(solved), gravity=gravity, options=options,
+                         regions=regions_of(solved), **loads)
     except SolveError as err:
         if not keep_partial or err.partial is None:
             raise

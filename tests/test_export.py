@@ -139,6 +139,27 @@ def _deck(beam, **kwargs):
     return abaqus_deck(quadratic_mesh(beam), Yeoh(), Membrane(), pressures_kpa=BEAM_PRESSURES, **kwargs)
 
 
+def test_deck_of_two_rubbers_gives_each_its_set_material_and_weight(beam):
+    """A bottom region of another rubber: its elements in BOTTOM_LAYER with its own Yeoh,
+    density, section and gravity load; ELASTOMER the rest; every element once."""
+    low = np.flatnonzero(beam.nodes_mm[beam.tets][:, :, 2].mean(axis=1) < 1.0)
+    two = dataclasses.replace(beam, regions={"bottom_layer": low})
+    stiff = Yeoh(c10_mpa=1.1, c20_mpa=0.2, density_g_per_ml=1.3)
+    text = abaqus_deck(quadratic_mesh(two), Yeoh(), Membrane(), pressures_kpa=BEAM_PRESSURES,
+                       gravity_g=(0.0, 0.0, -1.0), regions={"bottom_layer": stiff})
+    ids = {}
+    for name in ("ELASTOMER", "BOTTOM_LAYER"):
+        block = text.split(f"*ELEMENT, TYPE=C3D10, ELSET={name}\n")[1].split("*")[0]
+        ids[name] = [int(line.split(",")[0]) for line in block.splitlines()]
+    assert sorted(ids["BOTTOM_LAYER"]) == list(low + 1)
+    assert sorted(ids["ELASTOMER"] + ids["BOTTOM_LAYER"]) == list(range(1, beam.n_tets + 1))
+    layer = text.split("*MATERIAL, NAME=BOTTOM_LAYER\n*HYPERELASTIC, YEOH\n")[1].splitlines()
+    assert [float(v) for v in layer[0].split(",")[:3]] == pytest.approx([1.1, 0.2, 0.0])
+    assert float(layer[2]) == pytest.approx(1.3e-9)
+    assert "*SOLID SECTION, ELSET=BOTTOM_LAYER, MATERIAL=BOTTOM_LAYER" in text
+    assert "ELASTOMER, GRAV, 9806.65, 0, 0, -1\nBOTTOM_LAYER, GRAV, 9806.65, 0, 0, -1\n" in text
+
+
 def test_deck_holds_the_problem(beam):
     mat = Yeoh()
     text = _deck(beam, gravity_g=(0.0, 0.0, -1.0))

@@ -148,3 +148,30 @@ def test_a_build_whose_fe_fails_keeps_its_parts_and_report(tmp_path, monkeypatch
     fem = report["fem"]
     assert fem["stop"] == "failed" and fem["full_bend_pressure_kpa"] is None
     assert "gravity stage failed" in fem["reason"] and "try:" in fem["reason"]
+
+
+def test_a_rubber_strain_limiting_layer_is_a_second_material_in_the_fe(exported):
+    """Issue 18: an Ecoflex 00-30 actuator whose bottom layer is cast in Elastosil M4601 (no
+    paper) bends toward that layer, and so does the same actuator with its layer in Ecoflex;
+    the 13x stiffer layer (2 mm of it) adds far more bending stiffness than it takes away
+    extension, so at the same pressure it bends markedly less (the composite-beam test in
+    test_fem.py checks the two-rubber physics exactly). The mesh carries the layer as a
+    region of its own."""
+    from pnmold.materials.library import as_design_overrides, get_material
+    from pnmold.quickfe import regions_of
+    from pnmold.tetmesh import BOTTOM_LAYER
+
+    ecoflex = [*as_design_overrides(get_material("Ecoflex 00-30")), "paper.present=false"]
+    layered = load_design("fpn", [*ecoflex, "layer_material.name=Elastosil M4601"])
+    assert set(regions_of(layered)) == {BOTTOM_LAYER}
+    assert regions_of(layered)[BOTTOM_LAYER].c10_mpa == pytest.approx(get_material("Elastosil M4601").c10_mpa)
+    bends = {}
+    for label, sets in (("layered", [*ecoflex, "layer_material.name=Elastosil M4601"]),
+                        ("plain", [*ecoflex, "layer_material.name=Ecoflex 00-30"])):
+        design, step = exported("fpn", *sets)
+        run = run_fe(design, step_path=step, size=COARSE, orientation="none", pressures_kpa=[1.0, 2.0])
+        bends[label] = [s.bend_angle_deg for s in run.solution.steps]
+        if label == "layered":
+            assert run.mesh.regions[BOTTOM_LAYER].size > 0
+    assert 10.0 < bends["layered"][-1] < 0.7 * bends["plain"][-1]
+    assert bends["layered"][0] < bends["layered"][-1]

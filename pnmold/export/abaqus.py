@@ -12,7 +12,10 @@ What the deck holds, and how it differs from pnmold's own solve (:mod:`pnmold.fe
   ``strain_limiting_layer``, ``free_end``, ``symmetry``) as a node set ``NAME`` (its
   corner and midside nodes), element sets ``NAME_S1`` .. ``NAME_S4`` (the elements with a
   face in it, by face) and an element-face surface ``S_NAME``; ``TIP`` is the tip node,
-  ``ELASTOMER`` the solid elements, ``PAPER`` the layer's elements.
+  ``ELASTOMER`` the solid elements, ``PAPER`` the layer's elements. A body of two rubbers
+  (``regions``, e.g. a bottom layer cast in another silicone) lists that region's elements
+  in a set of its own (``BOTTOM_LAYER``) with its own material, section and gravity load;
+  ``ELASTOMER`` is then the rest.
 - **Elastomer**: ``*HYPERELASTIC, YEOH`` with C10, C20, C30 and D1 = 2/K (K = the FE's
   bulk modulus, 200 mu by default) and no higher terms (D2 = D3 = 1e30: CalculiX replaces a
   zero by a default of its own), i.e. U = (K/2)(J - 1)^2, the same function as pnmold's.
@@ -45,7 +48,7 @@ What the deck holds, and how it differs from pnmold's own solve (:mod:`pnmold.fe
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -106,9 +109,12 @@ class DeckOptions:
 
 def abaqus_deck(qmesh: QuadraticMesh, material: Yeoh, membrane: Membrane | None, *,
                 pressures_kpa: Sequence[float], gravity_g: Sequence[float] | None = None,
-                options: DeckOptions | None = None, title: str = "pnmold actuator") -> str:
-    """The input deck's text (see the module docstring for what it holds)."""
+                options: DeckOptions | None = None, title: str = "pnmold actuator",
+                regions: Mapping[str, Yeoh] | None = None) -> str:
+    """The input deck's text (see the module docstring for what it holds); ``regions``:
+    element-set name -> its rubber where it is not ``material``."""
     o = options or DeckOptions()
+    solids = _solid_sets(qmesh, material, regions or {})
     targets = sorted(float(p) for p in pressures_kpa if p > 0)
     if not targets:
         raise UsageError("the deck needs at least one pressure > 0 kPa")
@@ -123,13 +129,17 @@ def abaqus_deck(qmesh: QuadraticMesh, material: Yeoh, membrane: Membrane | None,
     wedges = paper_wedges(qmesh, layer, membrane.thickness_mm) if len(layer) and o.layer == "C3D15" else None
     nodes = qmesh.nodes_mm if wedges is None else np.vstack([qmesh.nodes_mm, wedges.nodes_mm])
     out += [f"{i + 1}, {x:.9g}, {y:.9g}, {z:.9g}" for i, (x, y, z) in enumerate(nodes)]
-    out.append(f"*ELEMENT, TYPE={o.solid}, ELSET=ELASTOMER")
-    out += _rows(qmesh.cells, 1)
+    for name, (cells, _) in solids.items():
+        out.append(f"*ELEMENT, TYPE={o.solid}, ELSET={name}")
+        out += _rows(qmesh.cells[cells], 1, cells)
     if len(layer):
         out.append(f"*ELEMENT, TYPE={o.layer}, ELSET=PAPER")
         out += _rows(layer if wedges is None else wedges.cells, len(qmesh.cells) + 1)
     out += _boundary_sets(qmesh)
-    out += _material(material, membrane if len(layer) else None, o)
+    for name, (_, rubber) in solids.items():
+        out += _material(name, rubber)
+    if len(layer):
+        out += _paper(membrane, o)
     out += ["*BOUNDARY", f"{CLAMP.upper()}, 1, 3"]
     if qmesh.mesh.half:
         out.append(f"{SYMMETRY.upper()}, 2, 2")
@@ -139,7 +149,7 @@ def abaqus_deck(qmesh: QuadraticMesh, material: Yeoh, membrane: Membrane | None,
             if len(held):
                 out += [f"*NSET, NSET=PAPER_{name.upper()}", *_ids(held + 1), "*BOUNDARY",
                         f"PAPER_{name.upper()}, {dofs}"]
-    out += _steps(qmesh, material, targets, gravity_g, o)
+    out += _steps(qmesh, {name: rubber for name, (_, rubber) in solids.items()}, targets, gravity_g, o)
     return "\n".join(out) + "\n"
 
 
@@ -192,8 +202,25 @@ def paper_wedges(qmesh: QuadraticMesh, facets: np.ndarray, thickness_mm: float) 
     return PaperWedges(new, cells, np.concatenate([uniq, uniq]), n)
 
 
-def _rows(cells: np.ndarray, first: int) -> list[str]:
-    return [f"{first + e}, " + ", ".join(str(int(v) + 1) for v in cell) for e, cell in enumerate(cells)]
+def _rows(cells: np.ndarray, first: int, ids: np.ndarray | None = None) -> list[str]:
+    """Element lines numbered ``first + e``, or ``first + ids[e]``."""
+    ids = np.arange(len(cells)) if ids is None else ids
+    return [f"{first + int(e)}, " + ", ".join(str(int(v) + 1) for v in cell) for e, cell in zip(ids, cells, strict=True)]
+
+
+def _solid_sets(qmesh: QuadraticMesh, material: Yeoh,
+                regions: Mapping[str, Yeoh]) -> dict[str, tuple[np.ndarray, Yeoh]]:
+    """Element set name -> (its cells, its rubber): ``ELASTOMER`` (every cell not in a region)
+    and one set per region."""
+    rest = np.ones(len(qmesh.cells), bool)
+    sets = {}
+    for name, rubber in regions.items():
+        if name not in qmesh.mesh.regions:
+            raise ExportError(name, "this element set of a second rubber is not in the mesh")
+        cells = np.asarray(qmesh.mesh.regions[name])
+        rest[cells] = False
+        sets[name.upper()] = (cells, rubber)
+    return {"ELASTOMER": (np.flatnonzero(rest), material), **sets}
 
 
 def tip_node(qmesh: QuadraticMesh) -> int:
@@ -232,30 +259,33 @@ def _boundary_sets(qmesh: QuadraticMesh) -> list[str]:
     return out
 
 
-def _material(material: Yeoh, membrane: Membrane | None, o: DeckOptions) -> list[str]:
+def _material(name: str, material: Yeoh) -> list[str]:
+    """A rubber's material and solid section on element set ``name``."""
     d1 = 2.0 / material.bulk_modulus_mpa
-    out = [
+    return [
         "** Yeoh: W = sum Ci0 (I1b - 3)^i + (1/D1)(J - 1)^2, D1 = 2/K, "
         f"K = {material.bulk_ratio:g} mu = {material.bulk_modulus_mpa:.6g} MPa (pointwise here; "
         "pnmold: mean dilatation per element)",
-        "*MATERIAL, NAME=ELASTOMER",
+        f"*MATERIAL, NAME={name}",
         "*HYPERELASTIC, YEOH",
         f"{material.c10_mpa:.9g}, {material.c20_mpa:.9g}, {material.c30_mpa:.9g}, {d1:.9g}, {NO_TERM:g}, {NO_TERM:g}",
         "*DENSITY",
         f"{material.density_g_per_ml * TONNE_PER_MM3_PER_G_PER_ML:.9g}",
-        "*SOLID SECTION, ELSET=ELASTOMER, MATERIAL=ELASTOMER",
+        f"*SOLID SECTION, ELSET={name}, MATERIAL={name}",
     ]
-    if membrane is not None:
-        section = {"C3D15": [], "M3D6": ["MEMBRANE SECTION"], "S6": ["SHELL SECTION"]}[o.layer]
-        out += [
-            f"** paper: E t = {membrane.stiffness_n_per_mm:.6g} N/mm on the strain-limiting facets",
-            "*MATERIAL, NAME=PAPER",
-            "*ELASTIC",
-            f"{membrane.modulus_mpa:.9g}, {membrane.poisson:.9g}",
-            *([f"*{section[0]}, ELSET=PAPER, MATERIAL=PAPER", f"{membrane.thickness_mm:.9g}"] if section
-              else ["*SOLID SECTION, ELSET=PAPER, MATERIAL=PAPER"]),
-        ]
-    return out
+
+
+def _paper(membrane: Membrane, o: DeckOptions) -> list[str]:
+    """The paper's material and section on element set ``PAPER``."""
+    section = {"C3D15": [], "M3D6": ["MEMBRANE SECTION"], "S6": ["SHELL SECTION"]}[o.layer]
+    return [
+        f"** paper: E t = {membrane.stiffness_n_per_mm:.6g} N/mm on the strain-limiting facets",
+        "*MATERIAL, NAME=PAPER",
+        "*ELASTIC",
+        f"{membrane.modulus_mpa:.9g}, {membrane.poisson:.9g}",
+        *([f"*{section[0]}, ELSET=PAPER, MATERIAL=PAPER", f"{membrane.thickness_mm:.9g}"] if section
+          else ["*SOLID SECTION, ELSET=PAPER, MATERIAL=PAPER"]),
+    ]
 
 
 def _pairs(points: list[tuple[float, float]]) -> list[str]:
@@ -275,14 +305,14 @@ def load_history(targets: Sequence[float], gravity: bool) -> tuple[list[float], 
     return [start] * gravity + [start + k for k in range(1, len(targets) + 1)], points
 
 
-def _steps(qmesh: QuadraticMesh, material: Yeoh, targets: list[float], gravity_g: Sequence[float] | None,
-           o: DeckOptions) -> list[str]:
+def _steps(qmesh: QuadraticMesh, rubbers: Mapping[str, Yeoh], targets: list[float],
+           gravity_g: Sequence[float] | None, o: DeckOptions) -> list[str]:
     """The whole load history in one ``*STEP, NLGEOM`` through amplitudes, with output at each
     target (``*TIME POINTS``): CalculiX 2.20 loses its membranes' (M3D6, S6) equilibrium when a
     load changes in a step after the first at large rotations; one step avoids that."""
     g = np.zeros(3) if gravity_g is None else np.asarray(gravity_g, float)
     norm = float(np.linalg.norm(g))
-    gravity = norm > 0 and material.density_g_per_ml > 0
+    gravity = norm > 0 and any(m.density_g_per_ml > 0 for m in rubbers.values())
     times, points = load_history(targets, gravity)
     total = times[-1]
     _, faces = qmesh.facet_faces(CAVITY)
@@ -297,7 +327,8 @@ def _steps(qmesh: QuadraticMesh, material: Yeoh, targets: list[float], gravity_g
         d = g / norm
         out += ["*AMPLITUDE, NAME=GRAVITY", *_pairs([(0.0, 0.0), (1.0, 1.0), (total, 1.0)])]
         loads += ["*DLOAD, AMPLITUDE=GRAVITY",
-                  f"ELASTOMER, GRAV, {G_MM_PER_S2 * norm:.9g}, {d[0]:.9g}, {d[1]:.9g}, {d[2]:.9g}"]
+                  *(f"{name}, GRAV, {G_MM_PER_S2 * norm:.9g}, {d[0]:.9g}, {d[1]:.9g}, {d[2]:.9g}"
+                    for name in rubbers)]
     loads += ["*DLOAD, AMPLITUDE=PRESSURE",
               *(f"{CAVITY.upper()}_S{j}, P{j}, {max(targets) / 1000.0:.9g}" for j in labels)]
     out += ["*TIME POINTS, NAME=TARGETS", *_ids_float(times),

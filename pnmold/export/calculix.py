@@ -172,13 +172,13 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     import dataclasses
 
     from pnmold.fem import solve_bending
-    from pnmold.quickfe import material_of, membrane_of
+    from pnmold.quickfe import material_of, membrane_of, regions_of
 
     from .abaqus import write_abaqus
     from .p2 import quadratic_mesh
 
     targets = sorted(float(p) for p in pressures_kpa if p > 0)
-    material, membrane = material_of(run.design), membrane_of(run.design)
+    material, membrane, regions = material_of(run.design), membrane_of(run.design), regions_of(run.design)
     wanted = ([0.0] if run.gravity_g is not None else []) + targets
 
     def tips_at(steps) -> np.ndarray:
@@ -191,7 +191,7 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     ours = tips_at(run.solution.steps)
     deck = write_abaqus(Path(folder) / "actuator.inp", quadratic_mesh(run.mesh), material, membrane,
                         pressures_kpa=targets, gravity_g=run.gravity_g, options=options,
-                        title=f"pnmold {run.design.name}: comparison with pnmold's FE")
+                        title=f"pnmold {run.design.name}: comparison with pnmold's FE", regions=regions)
     ccx = run_ccx(deck, threads=threads)
     rest = np.array([run.mesh.tip_mm[0], run.mesh.tip_mm[2]])
     theirs = ccx.tip_mm[:, [0, 2]] + rest
@@ -199,7 +199,8 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     if pointwise:
         t0 = time.perf_counter()
         sol = solve_bending(run.mesh, dataclasses.replace(material, volumetric="penalty"), membrane,
-                            pressures_kpa=targets, gravity=run.gravity_g)
+                            pressures_kpa=targets, gravity=run.gravity_g,
+                            regions={k: dataclasses.replace(m, volumetric="penalty") for k, m in regions.items()})
         seconds = time.perf_counter() - t0
         penalty = tips_at(sol.steps)
     return TipComparison(np.array(wanted), rest, ours, theirs, penalty, ccx, seconds)

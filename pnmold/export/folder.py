@@ -77,7 +77,7 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
     options : :class:`.abaqus.DeckOptions` of the deck.
     """
     from pnmold.mesh import mesh_actuator
-    from pnmold.quickfe import design_for_fe, material_of, membrane_of
+    from pnmold.quickfe import design_for_fe, material_of, membrane_of, regions_of
 
     from .abaqus import write_abaqus
     from .constants import material_constants
@@ -104,6 +104,12 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
     doc = material_constants(material, membrane, max_stretch=max(stretches) if stretches else None,
                              stretch_source="largest principal stretch of the build's FE curve (report.json)"
                              if stretches else None)
+    regions = regions_of(design)
+    for name, rubber in regions.items():  # a second rubber: its constants beside the body's
+        doc.setdefault("regions", {})[name] = {
+            **{k: v for k, v in material_constants(rubber, None).items() if k not in ("schema", "units")},
+            "elements": f"the deck's element set {name.upper()}; in SOFA's mesh the tetrahedra whose centroid "
+                        f"lies below z = {design.top_z0_mm:g} mm"}
     mesh, _ = mesh_actuator(build_dir / "actuator.step", design, size)
     out = Path(out_dir) if out_dir is not None else build_dir / fmt
     if fmt == "sofa":
@@ -115,7 +121,8 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
 
         qmesh = quadratic_mesh(mesh)
         deck = write_abaqus(out / DECK_NAME, qmesh, material, membrane, pressures_kpa=pressures,
-                            gravity_g=direction, options=options, title=f"pnmold {design.name}: the build's quick FE")
+                            gravity_g=direction, options=options, title=f"pnmold {design.name}: the build's quick FE",
+                            regions=regions)
         files = [deck, write_json(out / "material.json", doc)]
         nodes, elements = qmesh.n_nodes, len(qmesh.cells)
     log.info("exported %s of %s to %s", fmt, build_dir, out)

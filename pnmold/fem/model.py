@@ -25,7 +25,7 @@ from skfem.quadrature import get_quadrature
 from skfem.refdom import RefTri
 
 from ..errors import MeshingError
-from ..tetmesh import CAVITY, FREE_END, STRAIN_LIMITING_LAYER, TetMesh
+from ..tetmesh import BOTTOM_LAYER, CAVITY, FREE_END, STRAIN_LIMITING_LAYER, TetMesh
 from . import kernels, surface
 from .material import Membrane, Yeoh
 
@@ -124,6 +124,8 @@ class Model:
                  regions: Mapping[str, Yeoh] | None = None):
         self.mesh, self.material, self.membrane = mesh, material, membrane
         self.constants, self.density_ratio = _element_constants(mesh, material, regions or {})
+        #: the rubber the sheet lies on (its wrinkling depends on it)
+        self.substrate = (regions or {}).get(BOTTOM_LAYER, material)
         tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
         self.skmesh = MeshTet(np.asarray(mesh.nodes_mm, float).T.copy(), tets.T.copy())
         self.basis = Basis(self.skmesh, ElementTetP2(), intorder=2)
@@ -260,9 +262,9 @@ class Model:
         element by element -- a mesh-dependent instability, not the paper's (the material
         module notes the physics; as h -> 0 this tends to tension-field theory, the relaxed
         energy of a sheet without bending stiffness)."""
-        physical = self.membrane.wrinkling_force_n_per_mm(self.material)
+        physical = self.membrane.wrinkling_force_n_per_mm(self.substrate)
         h = float(np.median(np.sqrt(2.0 * weights.sum(axis=1))))
-        mesh = 0.5 * 8.0 * self.material.c10_mpa * h / (4.0 * np.pi)
+        mesh = 0.5 * 8.0 * self.substrate.c10_mpa * h / (4.0 * np.pi)
         if mesh < physical:
             log.info("sheet: compression held at %.3g N/mm (element-scale buckling of the "
                      "membrane at %.2g mm elements), below its wrinkling force %.3g N/mm",
