@@ -248,28 +248,10 @@ class Model:
         M = np.stack([np.einsum("kqdi,kqi->kqd", G, t) for t in (t1, t2)], axis=-1)
         dNs = np.einsum("adq,kqbd->kqab", dref, np.linalg.inv(M))
         self.mem_dofs = fd
-        self.mem_nc = self._sheet_compression(area * wts)
+        self.mem_nc = self.membrane.wrinkling_force_n_per_mm(self.substrate)
         self.mem_dNs = np.ascontiguousarray(dNs)
         self.mem_w = np.ascontiguousarray(area * wts)
         self.kmap_mem = self._map_facets(fd)
-
-    def _sheet_compression(self, weights: np.ndarray) -> float:
-        """The compressive force (N/mm) the sheet holds: its wrinkling force, but no more
-        than half the load at which a membrane without bending stiffness, on this rubber,
-        buckles at the scale of its elements: ``Es h / (4 pi)`` for a wrinkle of
-        wavelength ``h`` on an incompressible half-space (plane-strain modulus Es = 8 C10;
-        h the sheet's median element size). Beyond it the discrete sheet would wrinkle
-        element by element -- a mesh-dependent instability, not the paper's (the material
-        module notes the physics; as h -> 0 this tends to tension-field theory, the relaxed
-        energy of a sheet without bending stiffness)."""
-        physical = self.membrane.wrinkling_force_n_per_mm(self.substrate)
-        h = float(np.median(np.sqrt(2.0 * weights.sum(axis=1))))
-        mesh = 0.5 * 8.0 * self.substrate.c10_mpa * h / (4.0 * np.pi)
-        if mesh < physical:
-            log.info("sheet: compression held at %.3g N/mm (element-scale buckling of the "
-                     "membrane at %.2g mm elements), below its wrinkling force %.3g N/mm",
-                     mesh, h, physical)
-        return min(physical, mesh)
 
     def _build_pressure(self) -> None:
         fd = self.facet_dofs.get(CAVITY)

@@ -275,6 +275,9 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     done = 0.0  # the work of the pressure so far (N mm), the scale of Newton's energy criterion
     while True:
         v_new = state.t + dv
+        if not v_new > state.t:  # the increment vanished in rounding: a stall, said as one
+            raise PathFailure("pressure", state, v_new, None,
+                              f"the volume increment shrank to {dv:.3g} mm^3, below rounding")
         if len(history) == 1:
             u_pred, p_pred, s_pred = state.u + dv * rate_u, state.p + dv * rate_p, state.stresses
         else:
