@@ -77,7 +77,9 @@ class NewtonOptions:
         fraction of the load's work so far (an error of sqrt(energy_rtol) in the energy
         norm; see :meth:`Newton._small_decrement`).
     volume_rtol : cavity-volume tolerance relative to the prescribed volume.
-    max_iterations : Newton iterations per increment.
+    max_iterations : Newton iterations per increment (14: near a limit point, e.g. the sPN's
+        pressure maximum or the end of the Fig. S2A 5 mm member's curve, the last
+        increments need 8-12; with 7 they were cut until the curve failed).
     diverge_after : from this iteration on, give up when two iterations made no progress.
     target_iterations : factorisations per increment the step control aims at.
     growth : largest factor between consecutive increments.
@@ -94,8 +96,8 @@ class NewtonOptions:
     rtol: float = 1e-6
     energy_rtol: float = 1e-7
     volume_rtol: float = 1e-7
-    max_iterations: int = 7
-    diverge_after: int = 4
+    max_iterations: int = 14
+    diverge_after: int = 8
     target_iterations: int = 3
     growth: float = 2.0
     max_cuts: int = 8
