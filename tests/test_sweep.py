@@ -356,6 +356,11 @@ def test_summarize_reads_the_report_and_cuts_the_curve_at_the_pressure_limit(lim
     assert (row["elastomer_ml"], row["part_a_g"]) == (7.0, 8.19)
     failed = summarize(_report(None, ["fit.void.top"]), design, RunOptions())
     assert failed["status"] == "check_failed" and failed["failed_checks"] == ["fit.void.top"]
+    partial = _report(None)
+    partial["fem"].update(stop="failed", reason="pressure stage failed at 95 kPa (last converged)")
+    fe_failed = summarize(partial, design, RunOptions())  # the parts stand; the row says the FE failed
+    assert fe_failed["status"] == "failed" and fe_failed["error_type"] == "SolveError"
+    assert fe_failed["error"] == fe_failed["reason"] and fe_failed["fem_max_pressure_kpa"] == 95.0
 
 
 # -- with the quick FE ------------------------------------------------------------------------

@@ -172,8 +172,10 @@ def summarize(report: dict[str, Any], design: Design, run: RunOptions) -> dict[s
     parts, pours, m = report["parts"], report["pours"], design.mold
     plate_mm3 = (design.length_mm + 2 * m.ledge_mm) * (design.width_mm + 2 * m.ledge_mm) * m.plate_mm
     by_part = {p["part"]: p for p in pours}
+    fe_failed = not failed and fem.get("stop") == "failed"  # the parts stand, the FE curve is partial
     return {
-        "status": "check_failed" if failed else "ok",
+        "status": "check_failed" if failed else "failed" if fe_failed else "ok",
+        **({"error_type": "SolveError", "error": reason} if fe_failed else {}),
         "checks_failed": len(failed), "failed_checks": failed,
         "checks_skipped": sum(1 for c in report["checks"] if c["passed"] is None),
         "full_bend_pressure_kpa": bend, "reason": reason,
