@@ -37,7 +37,7 @@ def _build(design: str, solver: str, out: Path) -> dict:
     t = fem.get("timings_s", {})
     print(f"[{solver}] linear solver in report.json: {s.get('linear_solver')}; full bend "
           f"{fem['full_bend_pressure_kpa']} kPa; {s['unknowns']} unknowns, {s['increments']} load steps, "
-          f"{s['factorizations']} factorisations, {s['reused_solves']} reused")
+          f"{s['factorizations']} factorisations ({s.get('stage_factorizations')}), {s['cuts']} cuts")
     print(f"[{solver}] time: build {wall:.1f} s (wall), fem stage {report['timings_s'].get('fem')} s = mesh "
           f"{t.get('mesh')} s + solve {t.get('solve')} s (assembly {s['assembly_s']} s, linear solves "
           f"{s['linear_solve_s']} s) + blocked force {t.get('blocked_force')} s; load {os.getloadavg()[0]:.2f}")
