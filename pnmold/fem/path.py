@@ -151,6 +151,9 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
     while t < t_end - eps:
         nxt = next(s for s in stops if s > t + eps)
         t_new = nxt if nxt - (t + dt) < 0.1 * dt else t + dt
+        if not t_new > t:  # the increment vanished in rounding: a stall, said as one
+            raise PathFailure(what, state, t_new, None,
+                              f"the {what} increment shrank to {dt:.3g} {unit}, below rounding")
         if len(history) == 1:
             u_pred, s_pred = state.u + (t_new - t) * rate_u, state.stresses
         else:
