@@ -254,62 +254,58 @@ def test_thick_cylinder_inflation_converges_to_closed_form(record_property):
 
 
 # -- c. cantilever under gravity ------------------------------------------------------------
-def test_cantilever_sag_matches_beam_theory():
-    length, width, height = 60.0, 3.0, 3.0
-    skm = MeshTet.init_tensor(np.linspace(0, length, 31), np.linspace(0, width / 2, 3),
-                              np.linspace(0, height, 4))
-    mesh = tetmesh(skm, {"clamp": lambda c: c[:, 0] < TOL,
+CANTILEVER_L, CANTILEVER_W, CANTILEVER_H = 60.0, 3.0, 3.0
+SAG_SCALE = 0.01  # of g: small deflection
+
+
+def half_cantilever(nz: int) -> TetMesh:
+    """Half (y >= 0) of a 60 x 3 x 3 mm bar, clamped at x = 0, ``nz`` element layers."""
+    skm = MeshTet.init_tensor(np.linspace(0, CANTILEVER_L, 31), np.linspace(0, CANTILEVER_W / 2, 3),
+                              np.linspace(0, CANTILEVER_H, nz + 1))
+    return tetmesh(skm, {"clamp": lambda c: c[:, 0] < TOL,
                          "symmetry": lambda c: c[:, 1] < TOL,
-                         "free_end": lambda c: c[:, 0] > length - TOL}, half=True)
-    mat = Yeoh()
-    scale = 0.01  # of g: small deflection
-    model = Model(mesh, mat, None, {"clamp": (0, 1, 2), "symmetry": (1,)})
-    res = Newton(model).solve(np.zeros(model.ndof),
-                              Load(gravity_n_per_mm3=(0, 0, -scale * mat.weight_density_n_per_mm3)))
+                         "free_end": lambda c: c[:, 0] > CANTILEVER_L - TOL}, half=True)
+
+
+def gravity_sag(mesh: TetMesh, body: Yeoh, regions=None) -> float:
+    """Mean sag (mm) of the free end under ``SAG_SCALE`` g of ``body``'s weight density."""
+    model = Model(mesh, body, None, {"clamp": (0, 1, 2), "symmetry": (1,)}, regions=regions)
+    g = SAG_SCALE * body.weight_density_n_per_mm3
+    res = Newton(model).solve(np.zeros(model.ndof), Load(gravity_n_per_mm3=(0, 0, -g)))
     assert res.converged
     end = np.unique(model.facet_dofs["free_end"])
-    sag = -res.u.reshape(-1, 3)[end, 2].mean()
-    q = scale * mat.weight_density_n_per_mm3 * width * height
-    inertia = width * height ** 3 / 12
-    expected = q * length ** 4 / (8 * mat.youngs_modulus_mpa * inertia)
-    assert sag == pytest.approx(expected, rel=0.03)
+    return float(-res.u.reshape(-1, 3)[end, 2].mean())
 
+
+def test_cantilever_sag_matches_beam_theory():
+    mat = Yeoh()
+    sag = gravity_sag(half_cantilever(3), mat)
+    q = SAG_SCALE * mat.weight_density_n_per_mm3 * CANTILEVER_W * CANTILEVER_H
+    inertia = CANTILEVER_W * CANTILEVER_H ** 3 / 12
+    expected = q * CANTILEVER_L ** 4 / (8 * mat.youngs_modulus_mpa * inertia)
+    assert sag == pytest.approx(expected, rel=0.03)
 
 
 def test_two_rubber_cantilever_sags_as_a_composite_beam():
     """A bottom third cast in a 4x stiffer, 1.5x denser rubber (``regions``): the sag is the
     transformed-section beam's, with the weight of both rubbers."""
-    length, width, height = 60.0, 3.0, 3.0
-    skm = MeshTet.init_tensor(np.linspace(0, length, 31), np.linspace(0, width / 2, 3),
-                              np.linspace(0, height, 7))
-    mesh = tetmesh(skm, {"clamp": lambda c: c[:, 0] < TOL,
-                         "symmetry": lambda c: c[:, 1] < TOL,
-                         "free_end": lambda c: c[:, 0] > length - TOL}, half=True)
-    layer_mm = 1.0
+    width, height, layer_mm = CANTILEVER_W, CANTILEVER_H, 1.0
+    mesh = half_cantilever(6)
     low = np.flatnonzero(mesh.nodes_mm[mesh.tets][:, :, 2].mean(axis=1) < layer_mm)
     mesh = dataclasses.replace(mesh, regions={"bottom_layer": low})
     body = Yeoh()
     stiff = Yeoh(c10_mpa=4 * body.c10_mpa, c20_mpa=4 * body.c20_mpa, c30_mpa=4 * body.c30_mpa,
                  density_g_per_ml=1.5 * body.density_g_per_ml)
-    scale = 0.01  # of g: small deflection
-    model = Model(mesh, body, None, {"clamp": (0, 1, 2), "symmetry": (1,)},
-                  regions={"bottom_layer": stiff})
-    g = scale * body.weight_density_n_per_mm3
-    res = Newton(model).solve(np.zeros(model.ndof), Load(gravity_n_per_mm3=(0, 0, -g)))
-    assert res.converged
-    end = np.unique(model.facet_dofs["free_end"])
-    sag = -res.u.reshape(-1, 3)[end, 2].mean()
+    sag = gravity_sag(mesh, body, {"bottom_layer": stiff})
     a1, a2 = width * layer_mm, width * (height - layer_mm)  # stiff layer, body
-    q = g * (1.5 * a1 + a2)
+    q = SAG_SCALE * body.weight_density_n_per_mm3 * (1.5 * a1 + a2)
     n = 4.0  # modular ratio; transformed section in body units
     zc = (n * a1 * layer_mm / 2 + a2 * (layer_mm + height) / 2) / (n * a1 + a2)
     inertia = (n * (width * layer_mm ** 3 / 12 + a1 * (zc - layer_mm / 2) ** 2)
                + width * (height - layer_mm) ** 3 / 12 + a2 * (zc - (layer_mm + height) / 2) ** 2)
-    expected = q * length ** 4 / (8 * body.youngs_modulus_mpa * inertia)
+    expected = q * CANTILEVER_L ** 4 / (8 * body.youngs_modulus_mpa * inertia)
     assert sag == pytest.approx(expected, rel=0.03)
-    uniform = Model(mesh, body, None, {"clamp": (0, 1, 2), "symmetry": (1,)})
-    plain = Newton(uniform).solve(np.zeros(uniform.ndof), Load(gravity_n_per_mm3=(0, 0, -g)))
-    assert -plain.u.reshape(-1, 3)[end, 2].mean() > 1.5 * sag  # the stiff layer matters
+    assert gravity_sag(mesh, body) > 1.5 * sag  # the stiff layer matters
 
 
 def test_clamp_reaction_carries_the_weight_of_two_rubbers(beam):
