@@ -241,7 +241,9 @@ def test_calculix_runs_the_beam_deck_like_pnmold(beam, tmp_path):
     deck = write_abaqus(tmp_path / "beam.inp", q, Yeoh(), Membrane(), pressures_kpa=BEAM_PRESSURES,
                         gravity_g=(0.0, 0.0, -1.0), options=DeckOptions(layer="M3D6"))
     ccx = run_ccx(deck)
-    pointwise = solve_bending(beam, Yeoh(volumetric="penalty"), Membrane(), pressures_kpa=list(BEAM_PRESSURES),
+    # the deck carries the paper's own 6.5 GPa: so does this solve (no series sheet, material.py)
+    pointwise = solve_bending(beam, Yeoh(volumetric="penalty"), Membrane(contrast=None),
+                              pressures_kpa=list(BEAM_PRESSURES),
                               gravity=(0.0, 0.0, -1.0))
     ours = np.array([[s.tip_x_mm - BEAM_L, s.tip_z_mm] for s in pointwise.steps])
     theirs = ccx.tip_mm[:, [0, 2]]

@@ -95,12 +95,13 @@ def test_wrinkling_strain_is_the_film_on_substrate_estimate():
 
 def test_sheet_in_compression_carries_only_its_wrinkling_force():
     """A block with the sheet on its bottom, squeezed 2% along x: the plain sheet pushes
-    back with E t eps w, the relaxed one with about its wrinkling force times the width."""
+    back with E t eps w, the relaxed one with about its wrinkling force times the width
+    (the sheet's own E: ``contrast=None``)."""
     soft = Yeoh(c10_mpa=1e-3, c20_mpa=0.0)
     mesh = unit_block(n=2, size=(4.0, 2.0, 1.0))
     forces = {}
     for wrinkles in (False, True):
-        paper = Membrane(wrinkles=wrinkles)
+        paper = Membrane(wrinkles=wrinkles, contrast=None)
         model = Model(mesh, soft, paper, {"x0": (0,), "x1": (0,), "y0": (1,),
                                           "strain_limiting_layer": (2,)})
         pushed = 3 * model.fixed_sets["x1"]
@@ -114,6 +115,36 @@ def test_sheet_in_compression_carries_only_its_wrinkling_force():
         nc = model.mem_nc
     assert forces[False] == pytest.approx(650.0 * 0.02 * 2.0, rel=0.1)
     assert 0.5 * nc * 2.0 < forces[True] < 1.5 * nc * 2.0
+
+
+def test_solved_sheet_is_in_series_with_the_rubber_and_keeps_the_wrinkling_force():
+    """E_solved = 1 / (1/E + 1/(contrast 6 C10)); the wrinkling force is the physical sheet's."""
+    paper = Membrane()
+    for rubber in (Yeoh(), ECOFLEX):
+        solved = paper.solved_on(rubber)
+        assert solved.modulus_mpa == pytest.approx(1.0 / (1 / 6500.0 + 1 / (6000.0 * rubber.c10_mpa)))
+        assert solved.modulus_mpa < paper.modulus_mpa and solved.contrast is None
+        assert solved.wrinkling_force_n_per_mm(rubber) == pytest.approx(
+            paper.wrinkling_force_n_per_mm(rubber), rel=1e-12)
+    assert Membrane(contrast=None).solved_on(ECOFLEX).modulus_mpa == 6500.0
+    with pytest.raises(Exception, match="contrast"):
+        Membrane(contrast=0.0)
+
+
+def test_sheet_contrast_barely_moves_the_bend(beam):
+    """The hollow beam with the paper at 40 kPa: the tip moves less than 2% of its travel
+    between the default contrast (1000) and 4x it (measured 1.3%), and less than half that
+    between 4x and 16x: the solved sheet converges to the practically inextensible paper
+    (material.py notes)."""
+    tips = {}
+    for contrast in (1000.0, 4000.0, 16000.0):
+        sol = solve_bending(beam, Yeoh(), Membrane(contrast=contrast), pressures_kpa=[40.0])
+        tips[contrast] = np.array([sol.steps[-1].tip_x_mm - beam.tip_mm[0], sol.steps[-1].tip_z_mm])
+    travel = np.linalg.norm(tips[16000.0])
+    assert travel > 0.5  # it bends (0.64 mm, 2.6 deg)
+    first = np.linalg.norm(tips[1000.0] - tips[4000.0]) / travel
+    second = np.linalg.norm(tips[4000.0] - tips[16000.0]) / travel
+    assert first < 0.02 and second < 0.5 * first
 
 
 # -- volume control through a pressure maximum ---------------------------------------------

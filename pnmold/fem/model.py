@@ -122,10 +122,12 @@ class Model:
     def __init__(self, mesh: TetMesh, material: Yeoh, membrane: Membrane | None,
                  fixed: Mapping[str, Sequence[int]], contact_set: str = FREE_END,
                  regions: Mapping[str, Yeoh] | None = None):
-        self.mesh, self.material, self.membrane = mesh, material, membrane
+        self.mesh, self.material = mesh, material
         self.constants, self.density_ratio = _element_constants(mesh, material, regions or {})
-        #: the rubber the sheet lies on (its wrinkling depends on it)
+        #: the rubber the sheet lies on (its wrinkling and solved stiffness depend on it)
         self.substrate = (regions or {}).get(BOTTOM_LAYER, material)
+        #: the sheet as solved (:meth:`Membrane.solved_on`)
+        self.membrane = membrane.solved_on(self.substrate) if membrane is not None else None
         tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
         self.skmesh = MeshTet(np.asarray(mesh.nodes_mm, float).T.copy(), tets.T.copy())
         self.basis = Basis(self.skmesh, ElementTetP2(), intorder=2)
