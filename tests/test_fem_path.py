@@ -202,7 +202,10 @@ def test_volume_control_reports_a_pressure_maximum_and_pressure_control_cannot_p
 
 
 def test_volume_control_continues_past_the_maximum_at_a_falling_pressure():
-    _, steps, maxima, _, why = inflate_bulge(past_maximum=True)
+    newton, steps, maxima, _, why = inflate_bulge(past_maximum=True)
+    # past the maximum K has a negative pivot; held at the cavity volume the system has none
+    # (the count the step control expects: crossing the maximum is not "too long a step")
+    assert newton.linear.negative_pivots == 1 and newton.inertia == 0
     assert len(maxima) == 1
     volumes = [v for v, _ in steps]
     assert all(b > a for a, b in zip(volumes, volumes[1:], strict=False))
@@ -220,6 +223,32 @@ def test_solve_bending_names_a_pressure_maximum_as_a_physical_stop(beam):
     assert top.pressure_kpa == pytest.approx(sol.steps[-1].pressure_kpa, rel=1e-6)
     assert top.cavity_volume_ml > 2 * sol.steps[0].cavity_volume_ml
     assert "pressure maximum" in sol.reason and sol.full_bend_pressure_kpa is None
+
+
+@pytest.mark.parametrize("critical", [True, False])
+def test_a_critical_point_ends_the_curve_as_an_instability_a_plain_failure_raises(beam, monkeypatch, critical):
+    """The pressure stage fails after 10 kPa: at a critical point of the path (the tangent lost
+    stability within the last try) the curve ends there as the named stop ``instability``
+    with its last state; otherwise the failure is a SolveError carrying the partial curve."""
+    from pnmold.fem import solver as solver_module
+    from pnmold.fem.path import PathFailure
+
+    real = solver_module.inflate
+
+    def failing(newton, start, load_at, angle, on_step, control, **kw):
+        end, _ = real(newton, start, load_at, angle, on_step, control, **{**kw, "p_limit": 0.01})
+        raise PathFailure("pressure", end, end.t + 1.0, None, "no progress", critical=critical)
+
+    monkeypatch.setattr(solver_module, "inflate", failing)
+    if not critical:
+        with pytest.raises(SolveError) as err:
+            solve_bending(beam, max_pressure_kpa=50.0)
+        assert err.value.partial.steps[-1].pressure_kpa == pytest.approx(10.0)
+        return
+    sol = solve_bending(beam, max_pressure_kpa=50.0)
+    assert sol.stop == "instability" and sol.full_bend_pressure_kpa is None
+    assert sol.steps[-1].pressure_kpa == pytest.approx(10.0)
+    assert "loses stability at 10 kPa" in sol.reason and "0.001 mL further" in sol.reason
 
 
 # -- globalisation -------------------------------------------------------------------------

@@ -173,8 +173,11 @@ class Newton:
         #: the solver sets it to the full weight, so that the first small increments of a
         #: ramp are converged as well as the last, not 100 times better
         self.reference_force = 0.0
-        #: negative pivots the tangent may have (the count at the last converged state)
+        #: negative eigenvalues the tangent may have (the count at the last converged
+        #: state; under volume control, of the system constrained to the cavity volume)
         self.inertia = 0
+        #: the same count of the first tangent of the last solve (at its predicted state)
+        self.first_negatives = 0
         #: tetrahedra that inverted at a trial state of the last solve (for diagnostics)
         self.inverted = np.zeros(0, np.int64)
 
@@ -202,6 +205,17 @@ class Newton:
         if mixed is None:  # a tangent at a converged state sets the inertia to expect
             self.inertia = self.linear.negative_pivots
         return ev
+
+    def negatives(self, g: np.ndarray | None = None) -> int:
+        """Negative eigenvalues of the last factored tangent; with ``g`` (the cavity volume's
+        gradient, free unknowns) those of the tangent constrained to a fixed volume: one
+        fewer when ``g . K^-1 g < 0`` (Haynsworth's inertia of the bordered matrix: past a
+        pressure maximum K has one negative pivot that the syringe's constraint removes).
+        -1 when the linear solver gives no inertia."""
+        neg = self.linear.negative_pivots
+        if neg < 0 or g is None:
+            return neg
+        return neg - int(float(g @ self.back_solve(g)) < 0.0)
 
     def back_solve(self, rhs: np.ndarray) -> np.ndarray:
         """``K^-1 rhs`` with the last factorisation (free unknowns)."""
@@ -250,7 +264,7 @@ class Newton:
 
         def result(ok: bool, why: str = "") -> NewtonResult:
             if ok:
-                self.inertia = self.linear.negative_pivots if n_fact else self.inertia
+                self.inertia = self.negatives(constraint) if n_fact else self.inertia
                 self.stats.newton_iterations.append(len(history) - 1)
                 log.debug("converged: residuals %s", " ".join(f"{h:.1e}" for h in history))
             return NewtonResult(ok, u, ev, history, p, n_fact, why,
@@ -260,6 +274,7 @@ class Newton:
             history.append(float("inf"))
             return result(False, "the starting state inverts elements")
         volume_tol = opt.volume_rtol * abs(volume) if volume is not None else 0.0
+        constraint = ev.volume_gradient[m.free] if volume is not None else None
         for it in range(opt.max_iterations + 1):
             rn = float(np.linalg.norm(ev.residual[m.free]))
             history.append(rn)
@@ -274,10 +289,12 @@ class Newton:
                 return result(False, "no progress")
             self.factor(u, replace(load, pressure_mpa=p), mixed)
             n_fact += 1
-            if strict and it == 0 and self.linear.negative_pivots > self.inertia:
-                return result(False, f"the tangent at the predicted state has "
-                              f"{self.linear.negative_pivots} negative pivots (at the last state "
-                              f"{self.inertia}): the step is too long")
+            if it == 0:
+                self.first_negatives = self.negatives(constraint)
+                if strict and self.first_negatives > self.inertia >= 0:
+                    return result(False, f"the tangent at the predicted state has "
+                                  f"{self.first_negatives} negative eigenvalues (at the last "
+                                  f"state {self.inertia}): the step is too long")
             step = self._step(u, p, ev, volume, load, guarded)
             log.debug("  it %d: |r| %.3e -> %s", it, rn, "rejected" if step is None else
                       f"{np.linalg.norm(step.ev.residual[m.free]):.3e} ({step.how})")

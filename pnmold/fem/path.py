@@ -17,7 +17,11 @@ with the factorisations an increment took (``target_iterations``) and are limite
 ``max_angle_deg`` of bend. Predictors extrapolate the last converged states (Lagrange,
 ``predictor_order``): points move on arcs as the actuator curls, and a higher-order
 prediction leaves Newton a smaller spurious stretch to remove. A failed increment is
-halved; ``max_cuts`` halvings in a row end the stage with :class:`PathFailure`.
+halved; ``max_cuts`` halvings in a row end the stage with :class:`PathFailure`, marked
+``critical`` when the shortest tries met a tangent that lost stability against the last
+converged state (counted under the volume constraint: past a pressure maximum K has a
+negative pivot the syringe removes, so crossing a maximum is not mistaken for one) -- the
+solver then ends the curve there as the named stop ``instability``.
 """
 
 from __future__ import annotations
@@ -59,11 +63,19 @@ class Control:
 
 
 class PathFailure(Exception):
-    """An increment failed after the allowed cuts; ``last`` is the last converged state."""
+    """An increment failed after the allowed cuts; ``last`` is the last converged state.
+
+    ``critical``: at the last try, cut at least :data:`CRITICAL_AFTER_CUTS` times, the
+    predicted state's tangent had more negative eigenvalues than
+    at ``last`` (under volume control, of the system held at the cavity volume): the
+    equilibrium path meets a critical point (a limit point or a bifurcation) within that
+    step -- the model loses stability there -- rather than Newton failing on a smooth path.
+    """
 
     def __init__(self, what: str, last: State, target: float, result: NewtonResult | None,
-                 why: str):
+                 why: str, critical: bool = False):
         self.what, self.last, self.target, self.result, self.why = what, last, target, result, why
+        self.critical = critical
         super().__init__(why)
 
 
@@ -118,6 +130,17 @@ def _next_step(newton: Newton, dt: float, n_fact: int, dangle: float, dp: float,
     return min(out, control.max_step)
 
 
+#: halvings before a failed increment's last try counts as short enough to tell a critical
+#: point from a predictor that went too far (1/16 of the first try)
+CRITICAL_AFTER_CUTS = 4
+
+
+def _critical(newton: Newton, cuts: int) -> bool:
+    """Whether the last try, at least :data:`CRITICAL_AFTER_CUTS` halvings short, met a
+    tangent with more negative eigenvalues than the last converged state's."""
+    return cuts >= CRITICAL_AFTER_CUTS and newton.first_negatives > newton.inertia >= 0
+
+
 def _tangent_load(newton: Newton, state: State, load: Load, rhs: np.ndarray) -> np.ndarray:
     """``K^-1 rhs`` at ``state`` (one factorisation), full length."""
     m = newton.model
@@ -166,7 +189,8 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
             log.info("%s %.4g %s: Newton failed (%s; residuals %s); cutting the step", what,
                      t_new, unit, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
             if cuts > opt.max_cuts:
-                raise PathFailure(what, state, t_new, res, f"failed after {cuts - 1} cuts: {res.why}")
+                raise PathFailure(what, state, t_new, res, f"failed after {cuts - 1} cuts: {res.why}",
+                                  _critical(newton, cuts))
             dt = 0.5 * (t_new - t)
             continue
         newton.stats.increments += 1
@@ -293,7 +317,8 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
             log.info("volume %.5g mL: Newton failed (%s; residuals %s); cutting the step",
                      v_new / 1000.0, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
             if cuts > opt.max_cuts:
-                raise PathFailure("pressure", state, v_new, res, f"failed after {cuts - 1} cuts: {res.why}")
+                raise PathFailure("pressure", state, v_new, res, f"failed after {cuts - 1} cuts: {res.why}",
+                                  _critical(newton, cuts))
             dv *= 0.5
             continue
         newton.stats.increments += 1

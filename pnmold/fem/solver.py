@@ -203,14 +203,23 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
             raise err from None
         report(State(state.t, state.u, 0.0, state.ev, state.stresses))
         n0 = setup.newton.stats.factorizations
+        failed = None
         try:
             _, why = inflate(setup.newton, state, setup.load, setup.angle, report,
                              options.control(), p_limit=pmax / 1000.0,
                              targets=[p / 1000.0 for p in targets] if targets else None,
                              past_maximum=options.past_pressure_maximum, on_maximum=at_maximum)
         except PathFailure as fail:
+            failed = fail
+        if failed is not None and failed.critical and failed.last.p > 0:  # a physical end
+            why, last = "instability", failed.last
+            found["instability"] = setup.observer.step(1000.0 * last.p, last.u, last.ev, blocked)
+            if not steps or steps[-1].pressure_kpa < found["instability"].pressure_kpa:
+                report(last)
+            found["instability_step_ml"] = abs(failed.target - last.t) / 1000.0
+        elif failed is not None:
             last = steps[-1].pressure_kpa if steps else 0.0
-            err = setup.error(stage, fail, f"{1000.0 * fail.last.p:.4g} kPa (last converged; "
+            err = setup.error(stage, failed, f"{1000.0 * failed.last.p:.4g} kPa (last converged; "
                               f"bend {steps[-1].bend_angle_deg:.1f} deg)", None, last)
             err.args = (f"{err.args[0]}; last converged pressure {last:.4g} kPa",)
             err.partial = partial(str(err))
@@ -240,6 +249,14 @@ def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
             f"the largest principal stretch {s.max_principal_stretch:.3g} at ({x:.1f}, {y:.1f}, "
             f"{z:.1f}) mm passed the material's stretch at break {max_stretch:.3g} at "
             f"{s.pressure_kpa:.4g} kPa and {s.bend_angle_deg:.1f} deg"), fb
+    if why == "instability":
+        s = found["instability"]
+        return "instability", (
+            f"the actuator loses stability at {s.pressure_kpa:.4g} kPa, {s.bend_angle_deg:.1f} deg "
+            f"and {s.cavity_volume_ml:.4g} mL: {found['instability_step_ml']:.2g} mL further the "
+            "tangent held at the cavity volume has a negative eigenvalue it has not here (a "
+            "limit point or a bifurcation of the equilibrium path: the actuator snaps to another "
+            "shape, e.g. flops over under its weight); the curve ends there"), fb
     if why == "pressure_maximum":
         return "pressure_maximum", (f"{found['maximum'].describe()}: past it the actuator "
                                     "inflates at a falling pressure (it snaps under a "
@@ -280,7 +297,7 @@ def solve_bending(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
     Returns
     -------
     Solution : the steps up to full bend or another named stop (``Solution.stop``:
-        ``full_bend``, ``pressure_limit``, ``pressure_maximum``, ``stretch_limit``,
+        ``full_bend``, ``pressure_limit``, ``pressure_maximum``, ``stretch_limit``, ``instability``,
         ``targets``); ``reason`` says in words why a curve ended short of full bend.
 
     Raises
