@@ -94,3 +94,17 @@ def test_report_and_json_follow_the_contract(tmp_path):
     page = (tmp_path / "report" / "report.html").read_text()
     assert "data:image/png;base64," in page and "layer_compliance" in page
     assert (tmp_path / "report" / "fits.png").stat().st_size > 20_000
+
+
+def test_calibration_window_stays_inside_the_reduced_models_bounds():
+    """A modulus found at (or a rounding past) the wide search's bound gives a window the
+    reduced model accepts: a P-V recording of a much softer rig once ended in a DesignError."""
+    from pnmold.diagnose.calibrate import WIDE, WINDOW, calibration_parameters
+    from pnmold.physics.rom import CALIBRATION
+
+    lo, hi = CALIBRATION["modulus_scale"][1]
+    assert WIDE == (lo, hi)
+    for nominal in (0.0194, lo, 1.0, hi, 60.0):
+        m = calibration_parameters(nominal)[0]
+        assert lo <= m.low <= m.start <= m.high <= hi
+    assert calibration_parameters(1.0)[0].low == WINDOW[0] and calibration_parameters(1.0)[0].high == WINDOW[1]

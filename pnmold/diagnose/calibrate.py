@@ -19,13 +19,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from pnmold.physics.reading import FRAME
+from pnmold.physics.rom import CALIBRATION
 
 from .fitting import Fitter, Hypothesis, Parameter
 
 #: the modulus window about the nominal: a stiffness error, not a different material (assumed)
 WINDOW = (0.6, 1.6)
-#: where a wrong material is looked for (assumed: Ecoflex 00-10 to a Shore A 40 rubber is ~50x)
-WIDE = (0.02, 50.0)
+#: where a wrong material is looked for: the reduced model's own bounds (assumed there: Ecoflex
+#: 00-10 to a Shore A 40 rubber is ~50x)
+WIDE = CALIBRATION["modulus_scale"][1]
 WIDE_POINTS = 43  # log grid: about 10 % apart
 
 
@@ -48,8 +50,8 @@ def frame_parameters() -> tuple[Parameter, ...]:
 
 def calibration_parameters(nominal_scale: float = 1.0, frame: bool = False) -> tuple[Parameter, ...]:
     """The modulus (the window about ``nominal_scale``) and, for a camera frame, its registration."""
-    lo, hi = WINDOW
-    modulus = Parameter("modulus_scale", nominal_scale, lo * nominal_scale, hi * nominal_scale, calibration=True)
+    lo, hi = max(WINDOW[0] * nominal_scale, WIDE[0]), min(WINDOW[1] * nominal_scale, WIDE[1])
+    modulus = Parameter("modulus_scale", min(max(nominal_scale, lo), hi), lo, hi, calibration=True)
     return (modulus, *(frame_parameters() if frame else ()))
 
 
@@ -65,6 +67,7 @@ def check_material(fitter: Fitter, frame: bool, material: str) -> MaterialCheck:
     wide = Hypothesis((), tuple(Parameter(p.key, p.start, max(p.low, WIDE[0]), min(p.high, WIDE[1]), True)
                                 for p in near.parameters))
     scale = float(fitter.fit(wide, starts=[np.array([p.start for p in wide.parameters])]).x[0])
+    scale = min(max(scale, WIDE[0]), WIDE[1])  # the fit may step a rounding past its bound
     if WINDOW[0] <= scale <= WINDOW[1]:
         return MaterialCheck(scale, True, None)
     way = "stiffer" if scale > 1 else "softer"
