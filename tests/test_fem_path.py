@@ -338,3 +338,27 @@ def test_ecoflex_beam_hangs_in_every_orientation(beam, gravity, axis, sign):
     # the sheet stiffens the beam across (in its plane): it sags sideways 30x less
     assert sign * tip[axis] > (0.5 if axis == 2 else 0.005)  # mm
     assert math.isfinite(sol.steps[-1].bend_angle_deg)
+
+
+def test_inertia_correction_shifts_a_tangent_with_a_surplus_negative_eigenvalue(beam):
+    """The beam's tangent at rest, lowered just below its smallest eigenvalue, has one negative
+    eigenvalue more than the converged state: it is refactored as K + s diag(K) until it has
+    none (one shift, the first of ``inertia_shifts``), and the stats count it."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as sla
+
+    model = Model(beam, Yeoh(), Membrane(), {"clamp": (0, 1, 2), "symmetry": (1,)})
+    newton = Newton(model)
+    ev = newton.factor(np.zeros(model.ndof), Load())
+    assert newton.inertia == 0
+    upper = ev.matrix
+    full = (upper + upper.T - sp.diags(upper.diagonal())).tocsc()
+    smallest = float(sla.eigsh(full, k=1, sigma=0, which="LM", return_eigenvectors=False)[0])
+    lowered = upper.copy()
+    lowered.data[model.diag_pos] -= 1.001 * smallest
+    ev.matrix = lowered
+    newton.linear.factor(lowered)
+    assert newton.linear.negative_pivots == 1
+    assert newton._correct_inertia(ev, None) == 1
+    assert newton.linear.negative_pivots == 0 and newton.stats.shifts == 1
+    assert newton._correct_inertia(ev, None) == 0  # the last (shifted) factorisation is already right

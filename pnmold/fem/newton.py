@@ -41,6 +41,16 @@ stiff moduli. Three consequences and their treatment here:
    Optimization, section 15.6), accepted only if it is a correction (no longer than the
    step). A step is also accepted when it halves the residual (Newton's own measure).
 
+4. Near a stable state an iterate's tangent may still have a negative eigenvalue (a thin
+   wall or a channel's roof over one element, a soft rubber's floppy mode): the Newton step
+   is then no descent direction of the energy, the line search fails and the iterates
+   wander, the negative pivot coming and going (the Ecoflex 00-30 stalls of issue 17). Such
+   a tangent is refactored as ``K + s diag(K)`` with ``s`` from ``inertia_shifts`` until its
+   inertia is the converged state's (the inertia correction of interior-point methods,
+   Nocedal & Wright, section 19.3; Waechter & Biegler, Math. Prog. 106:25, 2006): a
+   descent direction, and where the iterates reach a state whose own tangent has the
+   expected inertia, plain Newton again. Counted under the cavity-volume constraint.
+
 When the search has shortened the step twice in a row (crawling), the rest of the
 increment takes full steps guarded only against inverted elements: where the spurious
 stretch dominates the energy, the next Newton iteration removes it, as the plain guarded
@@ -91,6 +101,9 @@ class NewtonOptions:
     predictor_order : order of the extrapolation of converged states.
     mixed : build the tangent with the mixed-integration-point stresses (see the module
         notes); False for the plain Newton tangent.
+    inertia_shifts : when an iterate's tangent has more negative eigenvalues than the last
+        converged state's, it is refactored as ``K + s diag(K)`` with these ``s`` in turn until
+        it has not (inertia correction, module notes 4.); () to never shift.
     """
 
     rtol: float = 1e-6
@@ -106,6 +119,7 @@ class NewtonOptions:
     max_line_search: int = 6
     predictor_order: int = 4
     mixed: bool = True
+    inertia_shifts: tuple[float, ...] = (1e-4, 1e-3, 1e-2)
 
 
 @dataclass
@@ -135,11 +149,12 @@ class Stats:
     cuts: int = 0
     newton_iterations: list[int] = field(default_factory=list)
     corrections: int = 0
+    shifts: int = 0
     stage_factorizations: dict[str, int] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         return {"assembly_s": self.assembly_s, "linear_solve_s": self.linear_solve_s,
-                "corrections": self.corrections,
+                "corrections": self.corrections, "shifts": self.shifts,
                 "factorizations": self.factorizations, "increments": self.increments,
                 "residual_evaluations": self.residual_evaluations, "cuts": self.cuts,
                 "newton_iterations": list(self.newton_iterations),
@@ -198,13 +213,35 @@ class Newton:
         self.stats.assembly_s += time.perf_counter() - t
         self._floor = (_ROUNDOFF * self.span
                        * float(np.linalg.norm(ev.matrix.data[self.model.diag_pos])))
-        t = time.perf_counter()
-        self.linear.factor(ev.matrix)
-        self.stats.linear_solve_s += time.perf_counter() - t
-        self.stats.factorizations += 1
+        self._factor(ev.matrix)
         if mixed is None:  # a tangent at a converged state sets the inertia to expect
             self.inertia = self.linear.negative_pivots
         return ev
+
+    def _factor(self, matrix) -> None:
+        t = time.perf_counter()
+        self.linear.factor(matrix)
+        self.stats.linear_solve_s += time.perf_counter() - t
+        self.stats.factorizations += 1
+
+    def _correct_inertia(self, ev: Evaluation, constraint: np.ndarray | None) -> int:
+        """Refactor ``K + s diag(K)`` while the tangent has more negative eigenvalues than the
+        last converged state (module notes, 4.); returns the factorisations it took."""
+        extra, n = 0, 0
+        if self.inertia < 0 or self.negatives(constraint) <= self.inertia:
+            return 0
+        diag = ev.matrix.data[self.model.diag_pos].copy()
+        for shift in self.options.inertia_shifts:
+            shifted = ev.matrix.copy()
+            shifted.data[self.model.diag_pos] = diag + shift * np.abs(diag)
+            self._factor(shifted)
+            n += 1
+            extra = self.negatives(constraint) - self.inertia
+            log.debug("    inertia correction: shift %.0e, %d negative eigenvalues too many", shift, extra)
+            if extra <= 0:
+                break
+        self.stats.shifts += n
+        return n
 
     def negatives(self, g: np.ndarray | None = None) -> int:
         """Negative eigenvalues of the last factored tangent; with ``g`` (the cavity volume's
@@ -287,7 +324,7 @@ class Newton:
                 break
             if it >= opt.diverge_after and rn > min(history[-3], history[-2]):
                 return result(False, "no progress")
-            self.factor(u, replace(load, pressure_mpa=p), mixed)
+            tangent = self.factor(u, replace(load, pressure_mpa=p), mixed)
             n_fact += 1
             if it == 0:
                 self.first_negatives = self.negatives(constraint)
@@ -295,6 +332,7 @@ class Newton:
                     return result(False, f"the tangent at the predicted state has "
                                   f"{self.first_negatives} negative eigenvalues (at the last "
                                   f"state {self.inertia}): the step is too long")
+            n_fact += self._correct_inertia(tangent, constraint)
             step = self._step(u, p, ev, volume, load, guarded)
             log.debug("  it %d: |r| %.3e -> %s", it, rn, "rejected" if step is None else
                       f"{np.linalg.norm(step.ev.residual[m.free]):.3e} ({step.how})")
