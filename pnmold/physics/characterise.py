@@ -88,8 +88,10 @@ def cache_dir() -> Path:
 
 
 def cache_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path:
+    # the last part is the FE's version: v2 since the volume-controlled FE with the series
+    # paper sheet (issue 17); a change of the FE's answers bumps it so no older curve is read
     key = (f"{design.name}-{digest(design)}-m{size.wall_mm:g}x{size.max_mm:g}x{size.band_mm:g}"
-           f"{'h' if size.half else 'f'}-p{max_pressure_kpa:g}-g{PROBE_G:g}-v1")
+           f"{'h' if size.half else 'f'}-p{max_pressure_kpa:g}-g{PROBE_G:g}-v2")
     return cache_dir() / f"{key}.json"
 
 
