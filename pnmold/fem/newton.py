@@ -224,11 +224,11 @@ class Newton:
         self.stats.linear_solve_s += time.perf_counter() - t
         self.stats.factorizations += 1
 
-    def _correct_inertia(self, ev: Evaluation, constraint: np.ndarray | None) -> int:
-        """Refactor ``K + s diag(K)`` while the tangent has more negative eigenvalues than the
-        last converged state (module notes, 4.); returns the factorisations it took."""
+    def _correct_inertia(self, ev: Evaluation, constraint: np.ndarray | None, negatives: int) -> int:
+        """Refactor ``K + s diag(K)`` while the tangent (``negatives`` negative eigenvalues) has
+        more than the last converged state (module notes, 4.); returns the factorisations it took."""
         extra, n = 0, 0
-        if self.inertia < 0 or self.negatives(constraint) <= self.inertia:
+        if self.inertia < 0 or negatives <= self.inertia:
             return 0
         diag = ev.matrix.data[self.model.diag_pos].copy()
         for shift in self.options.inertia_shifts:
@@ -250,7 +250,7 @@ class Newton:
         pressure maximum K has one negative pivot that the syringe's constraint removes).
         -1 when the linear solver gives no inertia."""
         neg = self.linear.negative_pivots
-        if neg < 0 or g is None:
+        if neg <= 0 or g is None:  # a positive definite K has g . K^-1 g > 0: no solve needed
             return neg
         return neg - int(float(g @ self.back_solve(g)) < 0.0)
 
@@ -326,13 +326,14 @@ class Newton:
                 return result(False, "no progress")
             tangent = self.factor(u, replace(load, pressure_mpa=p), mixed)
             n_fact += 1
+            negatives = self.negatives(constraint)
             if it == 0:
-                self.first_negatives = self.negatives(constraint)
+                self.first_negatives = negatives
                 if strict and self.first_negatives > self.inertia >= 0:
                     return result(False, f"the tangent at the predicted state has "
                                   f"{self.first_negatives} negative eigenvalues (at the last "
                                   f"state {self.inertia}): the step is too long")
-            n_fact += self._correct_inertia(tangent, constraint)
+            n_fact += self._correct_inertia(tangent, constraint, negatives)
             step = self._step(u, p, ev, volume, load, guarded)
             log.debug("  it %d: |r| %.3e -> %s", it, rn, "rejected" if step is None else
                       f"{np.linalg.norm(step.ev.residual[m.free]):.3e} ({step.how})")
