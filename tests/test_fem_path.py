@@ -251,6 +251,45 @@ def test_a_critical_point_ends_the_curve_as_an_instability_a_plain_failure_raise
     assert "loses stability at 10 kPa" in sol.reason and "0.001 mL further" in sol.reason
 
 
+def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_pressure(beam, monkeypatch):
+    """The gravity stage fails at a critical point (half its weight carried): the curve ends
+    there as ``instability`` with that state (0 kPa, the partial sag) and says so, instead
+    of raising; the stage's factorisations are still counted."""
+    from pnmold.fem import solver as solver_module
+    from pnmold.fem.path import PathFailure
+
+    real = solver_module.ramp
+
+    def buckling(newton, start, load_at, t_end, *args, **kw):
+        half = real(newton, start, load_at, 0.5, *args, **kw)
+        raise PathFailure("gravity", half, 0.5 + 1e-6, None, "no progress", critical=True)
+
+    monkeypatch.setattr(solver_module, "ramp", buckling)
+    sol = solve_bending(beam, max_pressure_kpa=50.0, gravity=(0.0, 0.0, -1.0))
+    assert sol.stop == "instability" and sol.full_bend_pressure_kpa is None
+    assert len(sol.steps) == 1 and sol.steps[0].pressure_kpa == 0.0
+    assert sol.steps[0].tip_z_mm < 0.0  # it sags under the half weight it carried
+    assert "under 0.5 g of its own weight and before any pressure" in sol.reason
+    assert sol.stats["stage_factorizations"]["gravity"] > 0
+
+
+@pytest.mark.parametrize(("first", "converged", "base", "cuts", "expected"), [
+    (1, 0, 0, 4, True),    # the shortest try met a tangent less stable than the last state
+    (1, 1, 0, 4, True),    # the converged states themselves lost stability in the stage
+    (1, 1, 1, 4, False),   # one negative eigenvalue all along: nothing was lost
+    (1, 0, 0, 3, False),   # too long a try to tell a critical point from an overshoot
+    (1, -1, 0, 8, False),  # the linear solver gives no inertia
+])
+def test_a_failure_is_critical_only_when_stability_was_lost_on_a_short_try(first, converged, base, cuts,
+                                                                          expected):
+    from types import SimpleNamespace
+
+    from pnmold.fem.path import _critical
+
+    newton = SimpleNamespace(first_negatives=first, inertia=converged)
+    assert _critical(newton, cuts, base) is expected
+
+
 # -- globalisation -------------------------------------------------------------------------
 def test_energy_line_search_lowers_the_energy_from_a_far_start(beam, monkeypatch):
     """40 kPa in one jump from rest (load control): every step the search accepts on the
@@ -362,3 +401,29 @@ def test_inertia_correction_shifts_a_tangent_with_a_surplus_negative_eigenvalue(
     assert newton._correct_inertia(ev, None, newton.negatives()) == 1
     assert newton.linear.negative_pivots == 0 and newton.stats.shifts == 1
     assert newton._correct_inertia(ev, None, newton.negatives()) == 0  # the last (shifted) factorisation is already right
+
+
+def test_the_converged_inertia_is_the_unshifted_tangents(beam, monkeypatch):
+    """A state reached through shifted tangents keeps the count of its own (unshifted)
+    tangent: a shift that hid a negative eigenvalue must not hide a lost stability."""
+    model = Model(beam, Yeoh(), Membrane(), {"clamp": (0, 1, 2), "symmetry": (1,)})
+    newton = Newton(model)
+    newton.factor(np.zeros(model.ndof), Load())
+    assert newton.inertia == 0
+    shifted = [False]  # every tangent "has" one negative eigenvalue, its shifted copy none
+    factor = newton.factor
+
+    def unshifted(*args, **kw):
+        shifted[0] = False
+        return factor(*args, **kw)
+
+    def shift(ev, g, n):
+        shifted[0] = True
+        return 1
+
+    monkeypatch.setattr(newton, "factor", unshifted)
+    monkeypatch.setattr(newton, "negatives", lambda g=None: 0 if shifted[0] else 1)
+    monkeypatch.setattr(newton, "_correct_inertia", shift)
+    res = newton.solve(np.zeros(model.ndof), Load(0.002), strict=False)
+    assert res.converged and newton.inertia == 1
+

@@ -295,13 +295,14 @@ class Newton:
         p, u = load.pressure_mpa, u0.copy()
         ev = self.evaluate(u, load)
         history: list[float] = []
-        n_fact, short, guarded = 0, 0, False
+        n_fact, short, guarded, unshifted = 0, 0, False, self.inertia
         self._rho = 0.0
         self.inverted = ev.inverted if not ev.ok else np.zeros(0, np.int64)
 
         def result(ok: bool, why: str = "") -> NewtonResult:
             if ok:
-                self.inertia = self.negatives(constraint) if n_fact else self.inertia
+                # the unshifted tangent's count: a shifted one would hide a lost stability
+                self.inertia = unshifted if n_fact else self.inertia
                 self.stats.newton_iterations.append(len(history) - 1)
                 log.debug("converged: residuals %s", " ".join(f"{h:.1e}" for h in history))
             return NewtonResult(ok, u, ev, history, p, n_fact, why,
@@ -326,7 +327,7 @@ class Newton:
                 return result(False, "no progress")
             tangent = self.factor(u, replace(load, pressure_mpa=p), mixed)
             n_fact += 1
-            negatives = self.negatives(constraint)
+            negatives = unshifted = self.negatives(constraint)
             if it == 0:
                 self.first_negatives = negatives
                 if strict and self.first_negatives > self.inertia >= 0:

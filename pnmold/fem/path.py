@@ -19,9 +19,10 @@ with the factorisations an increment took (``target_iterations``) and are limite
 prediction leaves Newton a smaller spurious stretch to remove. A failed increment is
 halved; ``max_cuts`` halvings in a row end the stage with :class:`PathFailure`, marked
 ``critical`` when the shortest tries met a tangent that lost stability against the last
-converged state (counted under the volume constraint: past a pressure maximum K has a
-negative pivot the syringe removes, so crossing a maximum is not mistaken for one) -- the
-solver then ends the curve there as the named stop ``instability``.
+converged state, or the converged states lost it during the stage (counted under the volume
+constraint: past a pressure maximum K has a negative pivot the syringe removes, so crossing a
+maximum is not mistaken for one) -- the solver then ends the curve there as the named stop
+``instability``.
 """
 
 from __future__ import annotations
@@ -135,10 +136,15 @@ def _next_step(newton: Newton, dt: float, n_fact: int, dangle: float, dp: float,
 CRITICAL_AFTER_CUTS = 4
 
 
-def _critical(newton: Newton, cuts: int) -> bool:
+def _critical(newton: Newton, cuts: int, base: int) -> bool:
     """Whether the last try, at least :data:`CRITICAL_AFTER_CUTS` halvings short, met a
-    tangent with more negative eigenvalues than the last converged state's."""
-    return cuts >= CRITICAL_AFTER_CUTS and newton.first_negatives > newton.inertia >= 0
+    tangent with more negative eigenvalues than the last converged state's, or the
+    converged states themselves lost stability during the stage (more negative
+    eigenvalues than ``base``, the count at its start: the path went through a singular
+    tangent, and a load-controlled stage cannot follow it past)."""
+    if cuts < CRITICAL_AFTER_CUTS or newton.inertia < 0:
+        return False
+    return newton.first_negatives > newton.inertia or newton.inertia > base
 
 
 def _tangent_load(newton: Newton, state: State, load: Load, rhs: np.ndarray) -> np.ndarray:
@@ -167,6 +173,7 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
     load0, load1 = load_at(t), load_at(t + 1.0)
     rate_rhs = -(newton.evaluate(start.u, load1).residual - newton.evaluate(start.u, load0).residual)
     rate_u = _tangent_load(newton, start, load0, rate_rhs)
+    base = newton.inertia
     dt = first_step or _first_step(newton, rate_u, angle, start, control)
     dt = min(dt, t_end - t)
     history, state, cuts, last_angle = [start], start, 0, angle(start.u)
@@ -176,7 +183,8 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
         t_new = nxt if nxt - (t + dt) < 0.1 * dt else t + dt
         if not t_new > t:  # the increment vanished in rounding: a stall, said as one
             raise PathFailure(what, state, t_new, None,
-                              f"the {what} increment shrank to {dt:.3g} {unit}, below rounding")
+                              f"the {what} increment shrank to {dt:.3g} {unit}, below rounding",
+                              _critical(newton, CRITICAL_AFTER_CUTS, base))
         if len(history) == 1:
             u_pred, s_pred = state.u + (t_new - t) * rate_u, state.stresses
         else:
@@ -190,7 +198,7 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
                      t_new, unit, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
             if cuts > opt.max_cuts:
                 raise PathFailure(what, state, t_new, res, f"failed after {cuts - 1} cuts: {res.why}",
-                                  _critical(newton, cuts))
+                                  _critical(newton, cuts, base))
             dt = 0.5 * (t_new - t)
             continue
         newton.stats.increments += 1
@@ -288,6 +296,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     g = first.ev.volume_gradient[m.free]
     a = newton.back_solve(g)
     compliance = float(g @ a)  # dV/dp at the start
+    base = newton.linear.negative_pivots - int(compliance < 0.0)
     rate_u = np.zeros(m.ndof)
     rate_u[m.free] = a / compliance
     rate_p = 1.0 / compliance
@@ -304,7 +313,8 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
         v_new = state.t + dv
         if not v_new > state.t:  # the increment vanished in rounding: a stall, said as one
             raise PathFailure("pressure", state, v_new, None,
-                              f"the volume increment shrank to {dv:.3g} mm^3, below rounding")
+                              f"the volume increment shrank to {dv:.3g} mm^3, below rounding",
+                              _critical(newton, CRITICAL_AFTER_CUTS, base))
         if len(history) == 1:
             u_pred, p_pred, s_pred = state.u + dv * rate_u, state.p + dv * rate_p, state.stresses
         else:
@@ -318,7 +328,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
                      v_new / 1000.0, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
             if cuts > opt.max_cuts:
                 raise PathFailure("pressure", state, v_new, res, f"failed after {cuts - 1} cuts: {res.why}",
-                                  _critical(newton, cuts))
+                                  _critical(newton, cuts, base))
             dv *= 0.5
             continue
         newton.stats.increments += 1

@@ -130,10 +130,12 @@ class _Setup:
         n0 = self.newton.stats.factorizations
         control = Control(first_angle_deg=opt.first_angle_step_deg,
                           max_angle_deg=opt.max_angle_step_deg)
-        end = ramp(self.newton, start, lambda g: self.load(0.0, g), 1.0, self.angle,
-                   lambda s: (False, 0.0), control, what="gravity", unit="g",
-                   first_step=opt.gravity_first_step)
-        self.newton.stats.stage_factorizations["gravity"] = self.newton.stats.factorizations - n0
+        try:
+            end = ramp(self.newton, start, lambda g: self.load(0.0, g), 1.0, self.angle,
+                       lambda s: (False, 0.0), control, what="gravity", unit="g",
+                       first_step=opt.gravity_first_step)
+        finally:
+            self.newton.stats.stage_factorizations["gravity"] = self.newton.stats.factorizations - n0
         return State(0.0, end.u, 0.0, end.ev, end.stresses)
 
     def error(self, stage: str, fail: PathFailure, unit_load: str,
@@ -194,29 +196,35 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
 
     try:
         state = setup.rest()
+        failed = None
         try:
             state = setup.gravity(state)
         except PathFailure as fail:
-            err = setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
-                              "(no pressure yet)", None, 0.0)
-            err.partial = partial(str(err))
-            raise err from None
+            if not fail.critical:
+                err = setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
+                                  "(no pressure yet)", None, 0.0)
+                err.partial = partial(str(err))
+                raise err from None
+            failed, state = fail, fail.last  # it buckles under its own weight: a physical end
+            found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and "
+                                          f"before any pressure (the last try {fail.target - fail.last.t:.2g} g more)")
         report(State(state.t, state.u, 0.0, state.ev, state.stresses))
         n0 = setup.newton.stats.factorizations
-        failed = None
         try:
-            _, why = inflate(setup.newton, state, setup.load, setup.angle, report,
-                             options.control(), p_limit=pmax / 1000.0,
-                             targets=[p / 1000.0 for p in targets] if targets else None,
-                             past_maximum=options.past_pressure_maximum, on_maximum=at_maximum)
+            if failed is None:
+                _, why = inflate(setup.newton, state, setup.load, setup.angle, report,
+                                 options.control(), p_limit=pmax / 1000.0,
+                                 targets=[p / 1000.0 for p in targets] if targets else None,
+                                 past_maximum=options.past_pressure_maximum, on_maximum=at_maximum)
         except PathFailure as fail:
+            if fail.critical and fail.last.p > 0:
+                found["instability_where"] = f" (the last try {abs(fail.target - fail.last.t) / 1000.0:.2g} mL further)"
             failed = fail
-        if failed is not None and failed.critical and failed.last.p > 0:  # a physical end
+        if failed is not None and "instability_where" in found:  # a physical end
             why, last = "instability", failed.last
             found["instability"] = setup.observer.step(1000.0 * last.p, last.u, last.ev, blocked)
-            if not steps or steps[-1].pressure_kpa < found["instability"].pressure_kpa:
+            if steps[-1].pressure_kpa < found["instability"].pressure_kpa:
                 report(last)
-            found["instability_step_ml"] = abs(failed.target - last.t) / 1000.0
         elif failed is not None:
             last = steps[-1].pressure_kpa if steps else 0.0
             err = setup.error(stage, failed, f"{1000.0 * failed.last.p:.4g} kPa (last converged; "
@@ -253,10 +261,10 @@ def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
         s = found["instability"]
         return "instability", (
             f"the actuator loses stability at {s.pressure_kpa:.4g} kPa, {s.bend_angle_deg:.1f} deg "
-            f"and {s.cavity_volume_ml:.4g} mL: {found['instability_step_ml']:.2g} mL further the "
-            "tangent held at the cavity volume has a negative eigenvalue it has not here (a "
-            "limit point or a bifurcation of the equilibrium path: the actuator snaps to another "
-            "shape, e.g. flops over under its weight); the curve ends there"), fb
+            f"and {s.cavity_volume_ml:.4g} mL{found['instability_where']}: its tangent turns "
+            "singular (a negative eigenvalue appears: a limit point or a bifurcation of the "
+            "equilibrium path, where the actuator snaps to another shape, e.g. a thin wall "
+            "buckles or the body flops over under its weight); the curve ends there"), fb
     if why == "pressure_maximum":
         return "pressure_maximum", (f"{found['maximum'].describe()}: past it the actuator "
                                     "inflates at a falling pressure (it snaps under a "
