@@ -14,6 +14,7 @@ _FLOATS = {
     "chambers.inside_wall_mm": (0.7, 3.0),
     "chambers.outer_wall_mm": (0.7, 4.0),
     "chambers.end_wall_mm": (2.0, 8.0),
+    "chambers.tip_wall_mm": (0.7, 4.0),
     "chambers.gap_mm": (0.7, 4.0),
     "channel.height_mm": (0.4, 3.0),
     "channel.width_mm": (0.8, 4.0),

@@ -125,3 +125,21 @@ def test_a_rubber_layer_without_paper_builds_and_passes_the_gate(tmp_path):
     assert pours["bottom_layer"]["mass_g"] == pytest.approx(slab / 1000 * 1.08, rel=1e-4)
     assert pours["bottom_layer"]["part_a_g"] == pytest.approx(pours["bottom_layer"]["part_b_g"])  # 1:1
     assert "paper" not in (result.out_dir / "checklist.md").read_text().split("## 3.")[1].split("## 4.")[0]
+
+
+def test_a_tip_wall_of_its_own_lengthens_the_body_and_passes_the_gate(tmp_path):
+    """``chambers.tip_wall_mm`` (another lab's segment whose distal wall is not an inside wall):
+    the body ends that far past the last chamber, every part keeps its closed-form volume,
+    the actuator's STL spans the new length and every check passes."""
+    from pnmold.pipeline import build
+
+    base = load_design("spn")
+    design = load_design("spn", ["chambers.tip_wall_mm=3.3"])
+    assert design.length_mm == pytest.approx(base.length_mm - base.chambers.inside_wall_mm + 3.3)
+    result = build(design, tmp_path / "tip", fem=False, use_slicer=False)
+    assert result.exit_code == 0, result.failed_checks
+    expected = part_volumes_mm3(design)
+    for name in design.part_names:
+        assert result.report["parts"][name]["volume_mm3"] == pytest.approx(expected[name], rel=2e-4), name
+    lo, hi = load_stl(result.out_dir / "actuator.stl").bounds
+    assert hi[0] - lo[0] == pytest.approx(design.length_mm, abs=1e-4)  # STL: float32

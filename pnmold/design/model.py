@@ -55,6 +55,11 @@ class Chambers:
         "proximal end wall that holds the inlet bore",
         "assumed (room for the 2 mm punch and tube)",
     )
+    tip_wall_mm: float = _f(
+        0.0,
+        "distal end wall at the tip; 0: as thick as the inside walls",
+        "-",
+    )
     gap_mm: float = _f(
         2.0,
         "fPN gap between neighbouring chambers (the exterior mold's plates); ignored for spn",
@@ -253,9 +258,14 @@ class Design:
         return x0, x0 + self.gap_mm
 
     @property
+    def tip_wall_mm(self) -> float:
+        """The distal end wall: ``chambers.tip_wall_mm``, or the inside walls' thickness when 0."""
+        return self.chambers.tip_wall_mm or self.chambers.inside_wall_mm
+
+    @property
     def length_mm(self) -> float:
         """Overall length L of the actuator (x)."""
-        return self.cavity_x_mm(self.chambers.count - 1)[1] + self.chambers.inside_wall_mm
+        return self.cavity_x_mm(self.chambers.count - 1)[1] + self.tip_wall_mm
 
     @property
     def width_mm(self) -> float:

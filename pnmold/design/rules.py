@@ -20,7 +20,7 @@ TUBE_INTERFERENCE_MAX = 0.3
 
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
-_NON_NEGATIVE = {"material.c20_mpa", "material.c30_mpa", "casting.waste_margin", "chambers.gap_mm",
+_NON_NEGATIVE = {"chambers.tip_wall_mm", "material.c20_mpa", "material.c30_mpa", "casting.waste_margin", "chambers.gap_mm",
                  "layer_material.c10_mpa", "layer_material.c20_mpa", "layer_material.c30_mpa",
                  "layer_material.density_g_per_ml", "layer_material.mix_ratio_a_to_b"}
 
@@ -58,7 +58,8 @@ def _check_identity(design: Design) -> None:
 def _check_elastomer(design: Design) -> None:
     c, lim = design.chambers, design.casting.min_elastomer_wall_mm
     for field, value in (("chambers.inside_wall_mm", c.inside_wall_mm),
-                         ("chambers.outer_wall_mm", c.outer_wall_mm)):
+                         ("chambers.outer_wall_mm", c.outer_wall_mm),
+                         ("chambers.tip_wall_mm", design.tip_wall_mm)):
         _need(value >= lim, field, f"{value} mm is below the castable minimum "
               f"casting.min_elastomer_wall_mm = {lim} mm")
     stops = design.mold.seat_height_mm if design.paper.present else 0.0
