@@ -53,7 +53,8 @@ def forward(effects, calib):
 
 def run(rec):
     """The toy model is the truth: no form error under the noise."""
-    return diagnose({"name": "toy", "digest": "0"}, [rec], forward, EFFECTS, seed=1, model_form_share=0.0)
+    return diagnose({"name": "toy", "digest": "0"}, [rec], forward, EFFECTS, seed=1, model_form_share=0.0,
+                    pressure_form_share=0.0)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -116,3 +117,28 @@ def test_a_prediction_at_parameters_already_run_is_not_run_again():
         with pytest.raises(SolveError):
             fitter.predict(h, np.array([1.0, 2.5]))
     assert len(runs) == 3 == fitter.evaluations
+
+
+def test_without_repeated_cycles_the_floor_follows_the_models_slope_in_pressure():
+    """One ramp, no repeats: each row's floor is the range share plus the model's pressure error
+    carried through its slope (largest where the bend runs away at a flat pressure); with
+    repeated cycles the scatter between them stands in for both."""
+    from pnmold.diagnose.data import PRESSURE_FORM_SHARE, build_dataset
+
+    p = np.linspace(0.0, 30.0, 16)
+    bend = 10.0 * np.tan(np.radians(2.8 * p))  # steepening toward 84 degrees of tan's argument
+    rec = Recording("ramp.csv", "bending", {"pressure_kpa": p, "bend_angle_deg": bend}, {})
+    (s,) = build_dataset([rec], [{"bend_angle_deg": bend}], model_form_share=0.01).series
+    slope = np.gradient(bend, p)
+    expected = np.hypot(0.01 * np.ptp(bend), PRESSURE_FORM_SHARE * p * np.abs(slope))
+    assert s.sigma == pytest.approx(np.hypot(s.measurement, expected), rel=1e-9)
+    assert s.sigma[-1] > 5 * s.sigma[1]  # the steep end is held to its pressure, not to the range
+    (flat,) = build_dataset([rec], [{"bend_angle_deg": bend}], 0.01, pressure_form_share=0.0).series
+    assert flat.sigma == pytest.approx(np.hypot(flat.measurement, 0.01 * np.ptp(bend)))
+    cycles = np.repeat([1, 2, 3], p.size)
+    phases = np.array(["inflate"] * p.size * 3)
+    repeated = Recording("cycles.csv", "bending", {"pressure_kpa": np.tile(p, 3), "bend_angle_deg": np.tile(bend, 3),
+                                                  "cycle": cycles, "phase": phases}, {})
+    (r,) = build_dataset([repeated], [{"bend_angle_deg": np.tile(bend, 3)}], 0.01).series
+    assert r.model_form == 0.0 and np.all(r.sigma == r.measurement)
+

@@ -14,7 +14,7 @@ from pnmold.recording import Recording
 
 from . import explain
 from .calibrate import calibration_notes, calibration_parameters, check_material, modulus_pinned
-from .data import MODEL_FORM_SHARE, DataSet, build_dataset
+from .data import MODEL_FORM_SHARE, PRESSURE_FORM_SHARE, DataSet, build_dataset
 from .decide import Candidate, Decision, decide, excess_sigma
 from .fitting import Fitter, Forward, zscores
 from .locate import locate
@@ -61,13 +61,16 @@ def _full_z(fitter: Fitter, c: Candidate) -> np.ndarray:
 
 def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forward: Forward,
              effects: list, *, seed: int = 0, reach: dict[str, Any] | None = None,
-             model_form_share: float = MODEL_FORM_SHARE) -> Diagnosis:
+             model_form_share: float = MODEL_FORM_SHARE,
+             pressure_form_share: float = PRESSURE_FORM_SHARE) -> Diagnosis:
     """Calibrate, locate, rank, fit, accept; ``effects`` are catalogue entries to consider
     (those whose kinds include a recorded kind). ``reach``: how far the model's FE
     characterisation went (``max_pressure_kpa``, ``full_bend_pressure_kpa``, ``reason``), to say
     where the answer rests on extrapolation (and refuse it when most of it does).
     ``model_form_share``: the model's own form error as a share of each observable's range, the
-    noise floor of a recording without repeated cycles (:data:`pnmold.diagnose.data.MODEL_FORM_SHARE`)."""
+    noise floor of a recording without repeated cycles (:data:`pnmold.diagnose.data.MODEL_FORM_SHARE`), and
+    ``pressure_form_share`` its error in pressure, carried through the model's slope on quasi-static
+    recordings (:data:`pnmold.diagnose.data.PRESSURE_FORM_SHARE`)."""
     t0 = time.perf_counter()
     kinds = {r.kind for r in recordings}
     effects = [e for e in effects if kinds & set(e.kinds)]
@@ -75,7 +78,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     scale, check, left_out = 1.0, None, {}
     for _ in range(3):  # as it is; about the material the recordings need; without the rows out of reach
         start = {} if scale == 1.0 else {"modulus_scale": scale}
-        data = build_dataset(list(recordings), _prediction(forward, recordings, start), model_form_share, left_out)
+        data = build_dataset(list(recordings), _prediction(forward, recordings, start), model_form_share, left_out,
+                             pressure_form_share)
         fitter = Fitter(data, forward)
         calibration = calibration_parameters(scale, frame)
         decision = decide(fitter, effects, seed=seed, calibration=calibration)
@@ -135,7 +139,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         "calibration": {"final": {k: round(v, 6) for k, v in final.fit.values.items()
                                   if k in {p.key for p in calibration}},
                         "material_check": None if check is None else check.as_json(), "notes": notes},
-        "noise": {s.name: s.sigma for s in data.series},
+        "noise": {s.name: s.level for s in data.series},
         "noise_parts": {s.name: {"measurement": s.measurement, "model_form": s.model_form} for s in data.series},
         "mismatch": mismatch,
         "missing_physics": missing,

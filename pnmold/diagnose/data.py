@@ -33,6 +33,15 @@ OBSERVABLES = {
 #: calibration absorbs). Repeated cycles measure what the rig and the rubber do not repeat, the
 #: scale a model is judged against, and take its place.
 MODEL_FORM_SHARE = 0.01
+#: the model's form error in pressure: a state the model reaches at p, the actuator may reach at
+#: p (1 +- this) (assumed from what was measured: the FE's full-bend pressure moved 1.2-1.9 % between
+#: the build mesh and a 1.6x finer one, ``benchmarks/fem.py``, README "Mesh convergence"; the reduced
+#: model reads the FE's law in pressure). On a quasi-static recording without repeated cycles it is
+#: carried through the model's slope dy/dp row by row: where the bend runs away at a nearly constant
+#: pressure (near a pressure maximum), no model can place the bend better than it places the pressure.
+PRESSURE_FORM_SHARE = 0.02
+#: recording kinds whose rows are indexed by a slowly varied pressure (the slope floor applies)
+QUASI_STATIC = ("bending", "pv", "force")
 #: rows per held-out block (at least); a branch of 30 rows gives 5 blocks
 BLOCK_ROWS = 6
 FOLDS = 5
@@ -45,16 +54,21 @@ class Series:
     recording: int  # index into the list of recordings
     observable: str
     y: np.ndarray  # measured values, in the recording's units
-    sigma: float  # what the model cannot be asked to explain: measurement noise and model form, combined
+    sigma: np.ndarray  # (n,) what the model cannot be asked to explain: measurement noise and model form
     branch: np.ndarray  # (n,) branch id of each row (global over the data set)
     block: np.ndarray  # (n,) block id of each row (global over the data set)
     rows: np.ndarray  # (n,) row indices in the recording
     measurement: float = 0.0  # the measurement noise estimated from the data (same units)
-    model_form: float = 0.0  # the model's form-error floor (same units)
+    model_form: float = 0.0  # the model's form-error floor, RMS over the rows (same units)
 
     @property
     def name(self) -> str:
         return f"{self.observable}[{self.recording}]"
+
+    @property
+    def level(self) -> float:
+        """The noise as one number: the RMS of ``sigma`` over the rows."""
+        return float(np.sqrt(np.mean(self.sigma ** 2))) if self.sigma.size else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,6 +159,26 @@ def repeat_sigma(residual: np.ndarray, rec: Recording) -> float | None:
     return float(np.sqrt(sq / dof)) if dof > 0 else None
 
 
+def pressure_form(rec: Recording, prediction: np.ndarray, branch: np.ndarray,
+                  share: float = PRESSURE_FORM_SHARE) -> np.ndarray:
+    """Per row, ``share`` x p x |dy/dp| of the model's ``prediction`` along each branch (0 where
+    the recording is not quasi-static or the model has no equilibrium)."""
+    out = np.zeros(len(rec))
+    p = rec.columns.get("pressure_kpa")
+    if rec.kind not in QUASI_STATIC or p is None:
+        return out
+    p, f = np.asarray(p, float), np.asarray(prediction, float)
+    for b in np.unique(branch):
+        idx = np.flatnonzero((branch == b) & np.isfinite(f))
+        grid = np.unique(p[idx])
+        if grid.size < 2:
+            continue
+        mean = np.array([f[idx][p[idx] == g].mean() for g in grid])  # repeated pressures: one point
+        slope = np.abs(np.gradient(mean, grid))
+        out[idx] = share * np.abs(p[idx]) * np.interp(p[idx], grid, slope)
+    return out
+
+
 def observables_of(rec: Recording) -> tuple[str, ...]:
     """The observables a recording gives; a bending test without the tip, its bend angle."""
     found = tuple(c for c in OBSERVABLES[rec.kind] if c in rec.columns)
@@ -154,13 +188,14 @@ def observables_of(rec: Recording) -> tuple[str, ...]:
 
 
 def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarray]],
-                  model_form_share: float = MODEL_FORM_SHARE, left_out: dict[int, np.ndarray] | None = None
-                  ) -> DataSet:
+                  model_form_share: float = MODEL_FORM_SHARE, left_out: dict[int, np.ndarray] | None = None,
+                  pressure_form_share: float = PRESSURE_FORM_SHARE) -> DataSet:
     """Series for every observable of every recording. Each one's sigma is the measurement noise,
     estimated from the residual against ``baseline`` (a first prediction per recording, which
     removes the curve's own shape): the larger of the scatter of its second differences and of
     the repeated cycles (2, 3, ...); a recording without repeated cycles adds (in quadrature) the
-    model-form floor, ``model_form_share`` of the observable's range in it. ``left_out``: recording
+    model-form floor, ``model_form_share`` of the observable's range in it and, row by row, the
+    baseline's pressure error (``pressure_form_share``) carried through its slope (:func:`pressure_form`). ``left_out``: recording
     index -> rows the model cannot reach (no equilibrium), left out of every series."""
     series: list[Series] = []
     branch0 = block0 = 0
@@ -180,9 +215,14 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             residual = np.where(np.isfinite(baseline[i][name]), y - baseline[i][name], 0.0)
             repeats = repeat_sigma(residual, rec)
             noise = max(noise_sigma(residual, branch, floor=1e-4 * max(span, 1e-9)), repeats or 0.0)
-            form = model_form_share * span if repeats is None else 0.0
-            series.append(Series(i, name, y[rows], float(np.hypot(noise, form)), branch[rows] + branch0,
-                                 block[rows] + block0, rows, noise, form))
+            form = np.zeros(len(rec))
+            if repeats is None:
+                form = np.hypot(model_form_share * span,
+                                pressure_form(rec, baseline[i][name], branch, pressure_form_share))
+            form = form[rows]
+            series.append(Series(i, name, y[rows], np.hypot(noise, form), branch[rows] + branch0,
+                                 block[rows] + block0, rows, noise,
+                                 float(np.sqrt(np.mean(form ** 2))) if form.size else 0.0))
         branch0 += int(branch.max(initial=0)) + 1
         block0 += int(block.max(initial=0)) + 1
     return DataSet(tuple(recordings), tuple(series))

@@ -64,7 +64,7 @@ def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3) -> list
                         continue
                     chi2 = float(np.sum(z[sel] ** 2))
                     sig = (chi2 - sel.size) / np.sqrt(2.0 * sel.size)
-                    mean = float(np.mean(z[sel])) * s.sigma
+                    mean = float(np.mean(z[sel] * s.sigma[sel]))
                     found.append((sig, s, axis, unit, float(x[sel].min()), float(x[sel].max()), labels, mean))
     found.sort(key=lambda f: -f[0])
     out: list[dict] = []
@@ -82,7 +82,7 @@ def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3) -> list
             "description": (f"{s.observable} measured {'above' if mean > 0 else 'below'} the calibrated model by "
                             f"{abs(mean):.3g} on average for {axis.split('_')[0]} {a:.4g}-{b:.4g} {unit}"
                             f"{' (' + where + ')' if where else ''} in {data.recordings[s.recording].path}; "
-                            f"{sig:.1f} standard deviations beyond the noise ({s.sigma:.2g})"),
+                            f"{sig:.1f} standard deviations beyond the noise ({s.level:.2g})"),
             "_rec": s.recording, "_labels": labels,
         })
     for o in out:

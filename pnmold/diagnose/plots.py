@@ -50,7 +50,7 @@ def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = Non
         if dec.accepted:
             bottom.plot(x[s.rows], zf[j] * s.sigma, ".", ms=3, color="tab:blue", label="improved")
         bottom.axhline(0, color="0.5", lw=0.8)
-        bottom.fill_between([x.min(), x.max()], -2 * s.sigma, 2 * s.sigma, color="0.85", label="2 x noise")
+        bottom.fill_between([x.min(), x.max()], -2 * s.level, 2 * s.level, color="0.85", label="2 x noise")
         for m in diag.doc["mismatch"]:
             if m["observable"] == s.observable:
                 a, b = next(iter(m["window"].values()))
