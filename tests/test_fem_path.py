@@ -249,6 +249,7 @@ def test_a_critical_point_ends_the_curve_as_an_instability_a_plain_failure_raise
     assert sol.stop == "instability" and sol.full_bend_pressure_kpa is None
     assert sol.steps[-1].pressure_kpa == pytest.approx(10.0)
     assert "loses stability at 10 kPa" in sol.reason and "0.001 mL further" in sol.reason
+    assert "90% of the softest mode at x = " in sol.reason
 
 
 def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_pressure(beam, monkeypatch):
@@ -270,6 +271,7 @@ def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_
     assert len(sol.steps) == 1 and sol.steps[0].pressure_kpa == 0.0
     assert sol.steps[0].tip_z_mm < 0.0  # it sags under the half weight it carried
     assert "under 0.5 g of its own weight and before any pressure" in sol.reason
+    assert "90% of the softest mode at x = " in sol.reason
     assert sol.stats["stage_factorizations"]["gravity"] > 0
 
 
@@ -426,4 +428,18 @@ def test_the_converged_inertia_is_the_unshifted_tangents(beam, monkeypatch):
     monkeypatch.setattr(newton, "_correct_inertia", shift)
     res = newton.solve(np.zeros(model.ndof), Load(0.002), strict=False)
     assert res.converged and newton.inertia == 1
+
+
+def test_the_softest_mode_of_a_clamped_beam_is_largest_at_its_free_end(beam):
+    """Inverse iteration on the tangent at rest finds the cantilever's first bending mode: it
+    vanishes at the clamp and is largest at the free end, which is where it is reported."""
+    import re
+
+    from pnmold.fem.failure import softest_mode
+
+    model = Model(beam, Yeoh(), Membrane(), {"clamp": (0, 1, 2), "symmetry": (1,)})
+    text = softest_mode(Newton(model), np.zeros(model.ndof), Load())
+    x_largest = float(re.search(r"largest at \(([-\d.]+),", text).group(1))
+    assert x_largest == pytest.approx(beam.nodes_mm[:, 0].max(), abs=0.5)
+    assert "touching" in text and "free_end" in text
 

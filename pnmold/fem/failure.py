@@ -46,16 +46,36 @@ def locate(model: Model, u: np.ndarray, residual: np.ndarray | None,
         return _describe(model, nodes, f"{inverted.size} tetrahedra inverted")
     if residual is None or not np.all(np.isfinite(residual)):
         return "no finite residual to locate"
-    r = np.linalg.norm(residual.reshape(-1, 3), axis=1)
+    return _concentration(model, residual, "residual") or "no residual left"
+
+
+def _concentration(model: Model, field: np.ndarray, what: str) -> str | None:
+    """The nodes holding 90% of a nodal vector field's |.|^2 (free nodes), and its largest."""
+    r = np.linalg.norm(field.reshape(-1, 3), axis=1)
     r[~np.isin(np.arange(r.size), model.free // 3)] = 0.0
     if not r.any():
-        return "no residual left"
+        return None
     order = np.argsort(r)[::-1]
     share = np.cumsum(r[order] ** 2) / float(np.sum(r ** 2))
-    top = order[: int(np.searchsorted(share, 0.9)) + 1]  # nodes holding 90% of |r|^2
+    top = order[: int(np.searchsorted(share, 0.9)) + 1]
     worst = model.X[order[0]]
-    return (_describe(model, top, "90% of the residual") + "; largest at "
+    return (_describe(model, top, f"90% of the {what}") + "; largest at "
             f"({worst[0]:.1f}, {worst[1]:.1f}, {worst[2]:.1f}) mm")
+
+
+def softest_mode(newton, u: np.ndarray, load, iterations: int = 8) -> str:
+    """Where the tangent at ``u`` is softest: inverse iteration (one factorisation, ``iterations``
+    back-substitutions) toward the eigenvector of the eigenvalue nearest zero, the shape in which
+    the body gives way at a critical point; located as :func:`locate` locates a residual."""
+    model = newton.model
+    newton.factor(u, load)
+    x = np.random.default_rng(0).standard_normal(model.free.size)
+    for _ in range(iterations):
+        x = newton.back_solve(x)
+        x /= np.linalg.norm(x)
+    mode = np.zeros(model.ndof)
+    mode[model.free] = x
+    return _concentration(model, mode, "softest mode") or "no free nodes"
 
 
 def message(stage: str, load: str, why: str, region: str) -> str:

@@ -206,6 +206,7 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
                 err.partial = partial(str(err))
                 raise err from None
             failed, state = fail, fail.last  # it buckles under its own weight: a physical end
+            found["instability_load"] = setup.load(0.0, fail.last.t)
             found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and "
                                           f"before any pressure (the last try {fail.target - fail.last.t:.2g} g more)")
         report(State(state.t, state.u, 0.0, state.ev, state.stresses))
@@ -223,6 +224,8 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
         if failed is not None and "instability_where" in found:  # a physical end
             why, last = "instability", failed.last
             found["instability"] = setup.observer.step(1000.0 * last.p, last.u, last.ev, blocked)
+            found["instability_mode"] = failure.softest_mode(
+                setup.newton, last.u, found.get("instability_load") or setup.load(last.p))
             if steps[-1].pressure_kpa < found["instability"].pressure_kpa:
                 report(last)
         elif failed is not None:
@@ -264,7 +267,8 @@ def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
             f"and {s.cavity_volume_ml:.4g} mL{found['instability_where']}: its tangent turns "
             "singular (a negative eigenvalue appears: a limit point or a bifurcation of the "
             "equilibrium path, where the actuator snaps to another shape, e.g. a thin wall "
-            "buckles or the body flops over under its weight); the curve ends there"), fb
+            "buckles or the body flops over under its weight; where: "
+            f"{found['instability_mode']}); the curve ends there"), fb
     if why == "pressure_maximum":
         return "pressure_maximum", (f"{found['maximum'].describe()}: past it the actuator "
                                     "inflates at a falling pressure (it snaps under a "
