@@ -275,20 +275,21 @@ def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_
     assert sol.stats["stage_factorizations"]["gravity"] > 0
 
 
-@pytest.mark.parametrize(("first", "converged", "base", "cuts", "expected"), [
-    (1, 0, 0, 4, True),    # the shortest try met a tangent less stable than the last state
-    (1, 1, 0, 4, True),    # the converged states themselves lost stability in the stage
-    (1, 1, 1, 4, False),   # one negative eigenvalue all along: nothing was lost
-    (1, 0, 0, 3, False),   # too long a try to tell a critical point from an overshoot
-    (1, -1, 0, 8, False),  # the linear solver gives no inertia
+@pytest.mark.parametrize(("first", "most", "converged", "base", "cuts", "expected"), [
+    (1, 1, 0, 0, 4, True),    # the shortest try's prediction is less stable than the last state
+    (0, 1, 0, 0, 4, True),    # ... or one of its iterates is (a singular tangent close by)
+    (1, 1, 1, 0, 4, True),    # the converged states themselves lost stability in the stage
+    (1, 1, 1, 1, 4, False),   # one negative eigenvalue all along: nothing was lost
+    (1, 1, 0, 0, 3, False),   # too long a try to tell a critical point from an overshoot
+    (1, 1, -1, 0, 8, False),  # the linear solver gives no inertia
 ])
-def test_a_failure_is_critical_only_when_stability_was_lost_on_a_short_try(first, converged, base, cuts,
+def test_a_failure_is_critical_only_when_stability_was_lost_on_a_short_try(first, most, converged, base, cuts,
                                                                           expected):
     from types import SimpleNamespace
 
     from pnmold.fem.path import _critical
 
-    newton = SimpleNamespace(first_negatives=first, inertia=converged)
+    newton = SimpleNamespace(first_negatives=first, most_negatives=most, inertia=converged)
     assert _critical(newton, cuts, base) is expected
 
 

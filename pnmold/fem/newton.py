@@ -193,6 +193,8 @@ class Newton:
         self.inertia = 0
         #: the same count of the first tangent of the last solve (at its predicted state)
         self.first_negatives = 0
+        #: the largest such count of any (unshifted) tangent of the last solve
+        self.most_negatives = 0
         #: tetrahedra that inverted at a trial state of the last solve (for diagnostics)
         self.inverted = np.zeros(0, np.int64)
 
@@ -296,6 +298,7 @@ class Newton:
         ev = self.evaluate(u, load)
         history: list[float] = []
         n_fact, short, guarded, unshifted = 0, 0, False, self.inertia
+        self.most_negatives = 0
         self._rho = 0.0
         self.inverted = ev.inverted if not ev.ok else np.zeros(0, np.int64)
 
@@ -328,6 +331,7 @@ class Newton:
             tangent = self.factor(u, replace(load, pressure_mpa=p), mixed)
             n_fact += 1
             negatives = unshifted = self.negatives(constraint)
+            self.most_negatives = max(self.most_negatives, negatives)
             if it == 0:
                 self.first_negatives = negatives
                 if strict and self.first_negatives > self.inertia >= 0:

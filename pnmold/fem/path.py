@@ -18,8 +18,8 @@ with the factorisations an increment took (``target_iterations``) and are limite
 ``predictor_order``): points move on arcs as the actuator curls, and a higher-order
 prediction leaves Newton a smaller spurious stretch to remove. A failed increment is
 halved; ``max_cuts`` halvings in a row end the stage with :class:`PathFailure`, marked
-``critical`` when the shortest tries met a tangent that lost stability against the last
-converged state, or the converged states lost it during the stage (counted under the volume
+``critical`` when the shortest tries met a tangent (predicted or iterated) that lost stability
+against the last converged state, or the converged states lost it during the stage (counted under the volume
 constraint: past a pressure maximum K has a negative pivot the syringe removes, so crossing a
 maximum is not mistaken for one) -- the solver then ends the curve there as the named stop
 ``instability``.
@@ -137,14 +137,14 @@ CRITICAL_AFTER_CUTS = 4
 
 
 def _critical(newton: Newton, cuts: int, base: int) -> bool:
-    """Whether the last try, at least :data:`CRITICAL_AFTER_CUTS` halvings short, met a
-    tangent with more negative eigenvalues than the last converged state's, or the
-    converged states themselves lost stability during the stage (more negative
-    eigenvalues than ``base``, the count at its start: the path went through a singular
-    tangent, and a load-controlled stage cannot follow it past)."""
+    """Whether the last try, at least :data:`CRITICAL_AFTER_CUTS` halvings short, met (at
+    its prediction or any iterate) a tangent with more negative eigenvalues than the last
+    converged state's, or the converged states themselves lost stability during the stage
+    (more negative eigenvalues than ``base``, the count at its start): either way the path
+    runs into a singular tangent, which a load-controlled stage cannot follow past."""
     if cuts < CRITICAL_AFTER_CUTS or newton.inertia < 0:
         return False
-    return newton.first_negatives > newton.inertia or newton.inertia > base
+    return max(newton.first_negatives, newton.most_negatives) > newton.inertia or newton.inertia > base
 
 
 def _tangent_load(newton: Newton, state: State, load: Load, rhs: np.ndarray) -> np.ndarray:
