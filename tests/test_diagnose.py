@@ -108,3 +108,19 @@ def test_calibration_window_stays_inside_the_reduced_models_bounds():
         m = calibration_parameters(nominal)[0]
         assert lo <= m.low <= m.start <= m.high <= hi
     assert calibration_parameters(1.0)[0].low == WINDOW[0] and calibration_parameters(1.0)[0].high == WINDOW[1]
+
+
+@pytest.mark.parametrize(("settled", "said"), [(1.83, True), (1.62, False)])
+def test_a_final_modulus_away_from_the_material_checks_is_said(settled, said):
+    """The material check's estimate (effects off) leads the notes; when the effects moved the final
+    modulus away from it, the value it settled at is said beside it, not left to the JSON."""
+    from types import SimpleNamespace
+
+    from pnmold.diagnose.calibrate import MaterialCheck, calibration_notes, calibration_parameters
+
+    check = MaterialCheck(1.61, False, "The recordings need a rubber 1.61 times stiffer.")
+    final = SimpleNamespace(fit=SimpleNamespace(values={"modulus_scale": settled}))
+    notes = calibration_notes(final, calibration_parameters(1.61), check)
+    assert notes[0] == check.message
+    assert any(f"settled at {settled:.3g} x the design's" in n for n in notes) is said
+

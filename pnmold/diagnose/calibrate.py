@@ -29,6 +29,8 @@ WINDOW = (0.6, 1.6)
 #: 00-10 to a Shore A 40 rubber is ~50x)
 WIDE = CALIBRATION["modulus_scale"][1]
 WIDE_POINTS = 43  # log grid: about 10 % apart
+#: a final modulus further than this share from the material check's is said too
+SETTLED_SHARE = 0.02
 
 
 @dataclass(frozen=True)
@@ -96,6 +98,9 @@ def calibration_notes(final, calibration: tuple[Parameter, ...], check: Material
     """Plain words on the calibration: a wrong material, and a value pinned at its bound (which way
     and by how much the model is off, and what to check) instead of physics."""
     notes = [check.message] if check is not None and check.message else []
+    settled = final.fit.values["modulus_scale"]
+    if notes and abs(settled / check.scale - 1.0) > SETTLED_SHARE:
+        notes.append(f"With the effects fitted, the modulus settled at {settled:.3g} x the design's.")
     for p in calibration:
         v = final.fit.values[p.key]
         side = _pinned(v, p)
