@@ -49,7 +49,9 @@ stiff moduli. Three consequences and their treatment here:
    inertia is the converged state's (the inertia correction of interior-point methods,
    Nocedal & Wright, section 19.3; Waechter & Biegler, Math. Prog. 106:25, 2006): a
    descent direction, and where the iterates reach a state whose own tangent has the
-   expected inertia, plain Newton again. Counted under the cavity-volume constraint.
+   expected inertia, plain Newton again. Counted under the cavity-volume constraint. A
+   converged state's own count is its last *unshifted* tangent's: a shift must never hide
+   that the path lost stability (the step control then ends the stage as an instability).
 
 When the search has shortened the step twice in a row (crawling), the rest of the
 increment takes full steps guarded only against inverted elements: where the spurious
