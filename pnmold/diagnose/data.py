@@ -195,8 +195,9 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
     removes the curve's own shape): the larger of the scatter of its second differences and of
     the repeated cycles (2, 3, ...); a recording without repeated cycles adds (in quadrature) the
     model-form floor, ``model_form_share`` of the observable's range in it and, row by row, the
-    baseline's pressure error (``pressure_form_share``) carried through its slope (:func:`pressure_form`). ``left_out``: recording
-    index -> rows the model cannot reach (no equilibrium), left out of every series."""
+    baseline's pressure error (``pressure_form_share``) carried through its slope
+    (:func:`pressure_form`). ``left_out``: recording index -> rows the model cannot reach (no
+    equilibrium), left out of every series."""
     series: list[Series] = []
     branch0 = block0 = 0
     for i, rec in enumerate(recordings):

@@ -19,10 +19,10 @@ with the factorisations an increment took (``target_iterations``) and are limite
 prediction leaves Newton a smaller spurious stretch to remove. A failed increment is
 halved; ``max_cuts`` halvings in a row end the stage with :class:`PathFailure`, marked
 ``critical`` when the shortest tries met a tangent (predicted or iterated) that lost stability
-against the last converged state, or the converged states lost it during the stage (counted under the volume
-constraint: past a pressure maximum K has a negative pivot the syringe removes, so crossing a
-maximum is not mistaken for one) -- the solver then ends the curve there as the named stop
-``instability``.
+against the last converged state, or the converged states lost it during the stage (counted
+under the volume constraint: past a pressure maximum K has a negative pivot the syringe
+removes, so crossing a maximum is not mistaken for one) -- the solver then ends the curve
+there as the named stop ``instability``.
 """
 
 from __future__ import annotations
@@ -144,7 +144,7 @@ def _critical(newton: Newton, cuts: int, base: int) -> bool:
     runs into a singular tangent, which a load-controlled stage cannot follow past."""
     if cuts < CRITICAL_AFTER_CUTS or newton.inertia < 0:
         return False
-    return max(newton.first_negatives, newton.most_negatives) > newton.inertia or newton.inertia > base
+    return newton.most_negatives > newton.inertia or newton.inertia > base
 
 
 def _tangent_load(newton: Newton, state: State, load: Load, rhs: np.ndarray) -> np.ndarray:
@@ -296,7 +296,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     g = first.ev.volume_gradient[m.free]
     a = newton.back_solve(g)
     compliance = float(g @ a)  # dV/dp at the start
-    base = newton.linear.negative_pivots - int(compliance < 0.0)
+    base = newton.negatives(g)
     rate_u = np.zeros(m.ndof)
     rate_u[m.free] = a / compliance
     rate_p = 1.0 / compliance

@@ -196,7 +196,7 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
 
     try:
         state = setup.rest()
-        failed = None
+        failed, critical_load = None, None  # a critical point: the load there, to find its mode
         try:
             state = setup.gravity(state)
         except PathFailure as fail:
@@ -206,9 +206,9 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
                 err.partial = partial(str(err))
                 raise err from None
             failed, state = fail, fail.last  # it buckles under its own weight: a physical end
-            found["instability_load"] = setup.load(0.0, fail.last.t)
-            found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and "
-                                          f"before any pressure (the last try {fail.target - fail.last.t:.2g} g more)")
+            critical_load = setup.load(0.0, fail.last.t)
+            found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and before any "
+                                          f"pressure (the last try {fail.target - fail.last.t:.2g} g more)")
         report(State(state.t, state.u, 0.0, state.ev, state.stresses))
         n0 = setup.newton.stats.factorizations
         try:
@@ -218,14 +218,14 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
                                  targets=[p / 1000.0 for p in targets] if targets else None,
                                  past_maximum=options.past_pressure_maximum, on_maximum=at_maximum)
         except PathFailure as fail:
-            if fail.critical and fail.last.p > 0:
-                found["instability_where"] = f" (the last try {abs(fail.target - fail.last.t) / 1000.0:.2g} mL further)"
             failed = fail
-        if failed is not None and "instability_where" in found:  # a physical end
+            if fail.critical and fail.last.p > 0:
+                critical_load = setup.load(fail.last.p)
+                found["instability_where"] = f" (the last try {abs(fail.target - fail.last.t) / 1000.0:.2g} mL further)"
+        if critical_load is not None:  # a physical end
             why, last = "instability", failed.last
             found["instability"] = setup.observer.step(1000.0 * last.p, last.u, last.ev, blocked)
-            found["instability_mode"] = failure.softest_mode(
-                setup.newton, last.u, found.get("instability_load") or setup.load(last.p))
+            found["instability_mode"] = failure.softest_mode(setup.newton, last.u, critical_load)
             if steps[-1].pressure_kpa < found["instability"].pressure_kpa:
                 report(last)
         elif failed is not None:
