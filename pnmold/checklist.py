@@ -140,7 +140,9 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
             '(1/32" x 3/32"), slightly larger than the hole so it seals.')),
         Section("Test", (
             f"Leak test: hold the actuator under water at {LEAK_TEST_KPA:g} kPa (assumed) and look for bubbles.",
-            "Clamp the top and bottom faces of the proximal chamber (the fixed end).",
+            (f"Clamp the top and bottom faces of the first {design.clamp_end_mm:.1f} mm "
+             f"({'the proximal chamber' if not design.clamp.length_mm else 'clamp.length_mm'}: the fixed end, "
+             "as the FE holds it)."),
             f"Bending test: raise the pressure with the regulator, photographing at each step. {bend}",
             safety,
             "Pressure-volume test: clamp the actuator vertically, fully submerged in a water tank; fill it with "

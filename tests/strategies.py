@@ -15,6 +15,7 @@ _FLOATS = {
     "chambers.outer_wall_mm": (0.7, 4.0),
     "chambers.end_wall_mm": (2.0, 8.0),
     "chambers.tip_wall_mm": (0.7, 4.0),
+    "clamp.length_mm": (0.5, 40.0),
     "chambers.gap_mm": (0.7, 4.0),
     "channel.height_mm": (0.4, 3.0),
     "channel.width_mm": (0.8, 4.0),

@@ -16,7 +16,7 @@ ORDER = ["Print `print/mold_interior.stl`", "Print `print/mold_exterior.stl`", "
          "Cure the top layer", "Demold: lift the interior mold", "Cut the paper", "Lay it flat on the bottom mold",
          "Pour over the paper", "set the cured top layer into it", "Cure the bonded actuator", "Elastosil E951",
          "Punch the inlet with a 2 mm biopsy punch", "tubing of 0.79 mm ID, 2.38 mm OD", "Leak test",
-         "Clamp the top and bottom faces of the proximal chamber", "Bending test", "Safety limit",
+         "Clamp the top and bottom faces of the first", "Bending test", "Safety limit",
          "Pressure-volume test", "three cycles"]
 
 
@@ -59,3 +59,11 @@ def test_checklist_command_writes_a_file(tmp_path, capsys):
     assert out.read_text().startswith("<!doctype html>")
     assert main(["checklist", "spn"]) == 0
     assert "Fabrication checklist: spn" in capsys.readouterr().out
+
+
+def test_the_clamp_step_says_how_much_of_the_body_to_hold(built):
+    result = built("fpn")
+    text = render_markdown(result.design, checklist_sections(result.design, result.report))
+    assert "Clamp the top and bottom faces of the first 11.0 mm (the proximal chamber" in text
+    held = result.design.replace("clamp", length_mm=20.0)
+    assert "the first 20.0 mm (clamp.length_mm" in render_markdown(held, checklist_sections(held, result.report))

@@ -100,6 +100,8 @@ INVALID = [
     ("chambers.inside_wall_mm=0.5", "chambers.inside_wall_mm"),  # castable elastomer wall
     ("chambers.tip_wall_mm=0.5", "chambers.tip_wall_mm"),      # castable elastomer wall
     ("chambers.tip_wall_mm=-1", "chambers.tip_wall_mm"),       # 0 or a wall
+    ("clamp.length_mm=-1", "clamp.length_mm"),                 # 0 or a length
+    ("clamp.length_mm=105", "clamp.length_mm"),                # one chamber at least left free
     ("top_layer.floor_mm=1.2", "top_layer.floor_mm"),          # elastomer over the channel
     ("chambers.count=40", "printer.build_x_mm"),               # build volume
     ("design.kind=xpn", "design.kind"),                        # kinds
@@ -161,3 +163,13 @@ def test_a_rubber_strain_limiting_layer_without_paper():
     slab = d.length_mm * d.width_mm * d.bottom_layer.thickness_mm
     assert d.elastomer_mass_g == pytest.approx(((d.elastomer_volume_mm3 - slab) * 1.13 + slab * 1.08) / 1000)
     assert digest(d) != digest(load_design("fpn"))
+
+
+def test_the_clamp_length_moves_the_clamp_and_only_then_the_digest():
+    base = load_design("fpn")
+    assert base.clamp_end_mm == base.proximal_end_mm  # the supplement's: the proximal chamber
+    assert digest(load_design("fpn", ["clamp.length_mm=0"])) == digest(base)
+    held = load_design("fpn", ["clamp.length_mm=20"])
+    assert held.clamp_end_mm == 20.0 and held.free_length_mm == pytest.approx(base.length_mm - 20.0)
+    assert digest(held) != digest(base)
+    assert "length_mm = 20.0  # set by the user (--set)" in to_toml(held)

@@ -122,3 +122,25 @@ def test_a_rubber_layer_of_its_own_is_a_region_the_mesh_conforms_to(tmp_path):
     assert np.all(z[bottom].max(axis=1) <= design.top_z0_mm + 1e-6)
     assert np.all(z[~bottom].min(axis=1) >= design.top_z0_mm - 1e-6)
     assert len(mesh.facets[STRAIN_LIMITING_LAYER]) == 0
+
+
+def test_a_longer_clamp_holds_the_top_and_bottom_faces_that_far(tmp_path):
+    """``clamp.length_mm`` (a lab's clamp that holds more than the proximal chamber): the clamp's facets
+    are the top and bottom faces up to that x and cover them there; the mesh conforms to its end."""
+    from pnmold.cad import export_actuator_step
+
+    design = load_design("fpn", ["clamp.length_mm=20"])
+    assert design.proximal_end_mm < 20.0 == design.clamp_end_mm
+    mesh, _ = mesh_actuator(export_actuator_step(design, tmp_path), design, MeshSize(3.5, 7.0))
+    tri = mesh.nodes_mm[mesh.facets[CLAMP]][..., :3]
+    assert tri[..., 0].max() == pytest.approx(20.0, abs=1e-6)
+    assert set(np.round(tri[..., 2].ravel(), 6)) == {0.0, round(design.height_mm, 6)}
+
+    def area(t):
+        return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum())
+
+    outer = mesh.nodes_mm[boundary_facets(mesh.tets)]
+    z = outer[..., 2]
+    held = (outer[..., 0].max(axis=1) <= 20.0 + 1e-6) & (np.all(z < 1e-6, axis=1)
+                                                        | np.all(z > design.height_mm - 1e-6, axis=1))
+    assert area(tri) == pytest.approx(area(outer[held]), rel=1e-9)  # all of the top and bottom up to 20 mm

@@ -116,6 +116,17 @@ class Paper:
 
 
 @dataclass(frozen=True)
+class Clamp:
+    """Where the actuator is held: the clamp fixes its top and bottom faces from x = 0 to ``length_mm``."""
+
+    length_mm: float = _f(
+        0.0,
+        "length held by the clamp from the inlet end (x = 0); 0: the proximal chamber, as the supplement's FE",
+        "-",
+    )
+
+
+@dataclass(frozen=True)
 class Inlet:
     diameter_mm: float = _f(
         2.0,
@@ -183,7 +194,7 @@ class Printer:
 
 SECTIONS = {
     "design": Meta, "chambers": Chambers, "channel": Channel, "top_layer": TopLayer,
-    "bottom_layer": BottomLayer, "paper": Paper, "inlet": Inlet, "mold": Mold,
+    "bottom_layer": BottomLayer, "paper": Paper, "clamp": Clamp, "inlet": Inlet, "mold": Mold,
     "material": Material, "layer_material": LayerMaterial, "casting": Casting, "printer": Printer,
 }
 
@@ -198,6 +209,7 @@ class Design:
     top_layer: TopLayer = field(default_factory=TopLayer)
     bottom_layer: BottomLayer = field(default_factory=BottomLayer)
     paper: Paper = field(default_factory=Paper)
+    clamp: Clamp = field(default_factory=Clamp)
     inlet: Inlet = field(default_factory=Inlet)
     mold: Mold = field(default_factory=Mold)
     material: Material = field(default_factory=Material)
@@ -290,10 +302,20 @@ class Design:
 
     # -- channel and inlet ------------------------------------------------------------
     @property
-    def clamp_end_mm(self) -> float:
-        """x where the proximal chamber (its cavity and distal wall) ends: the clamp's extent
-        (supplement: "zero displacements at the top and bottom face of the proximal pneu-net chamber")."""
+    def proximal_end_mm(self) -> float:
+        """x where the proximal chamber (its cavity and distal wall) ends."""
         return self.cavity_x_mm(0)[1] + self.chambers.inside_wall_mm
+
+    @property
+    def clamp_end_mm(self) -> float:
+        """x where the clamp ends: ``clamp.length_mm``, or the proximal chamber's end when 0 (supplement:
+        "zero displacements at the top and bottom face of the proximal pneu-net chamber")."""
+        return self.clamp.length_mm or self.proximal_end_mm
+
+    @property
+    def free_length_mm(self) -> float:
+        """Length from the clamp's end to the tip: what bends."""
+        return self.length_mm - self.clamp_end_mm
 
     @property
     def elastomer_volume_mm3(self) -> float:

@@ -20,7 +20,7 @@ TUBE_INTERFERENCE_MAX = 0.3
 
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
-_NON_NEGATIVE = {"chambers.tip_wall_mm", "material.c20_mpa", "material.c30_mpa", "casting.waste_margin",
+_NON_NEGATIVE = {"chambers.tip_wall_mm", "clamp.length_mm", "material.c20_mpa", "material.c30_mpa", "casting.waste_margin",
                  "chambers.gap_mm",
                  "layer_material.c10_mpa", "layer_material.c20_mpa", "layer_material.c30_mpa",
                  "layer_material.density_g_per_ml", "layer_material.mix_ratio_a_to_b"}
@@ -106,6 +106,10 @@ def _check_proportions(design: Design) -> None:
     c, ch = design.chambers, design.channel
     _need(ch.height_mm < c.height_mm, "channel.height_mm",
           f"the channel ({ch.height_mm} mm) must be lower than the chambers ({c.height_mm} mm)")
+    last = design.cavity_x_mm(c.count - 1)[0]
+    _need(design.clamp_end_mm <= last, "clamp.length_mm",
+          f"{design.clamp.length_mm} mm reaches past x = {last:.4g} mm, where the last chamber begins: "
+          "at least one chamber must be free to bend")
 
 
 def _check_channel_and_inlet(design: Design) -> None:

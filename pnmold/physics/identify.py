@@ -17,8 +17,9 @@ from pnmold.physics.rod import moments, node_positions
 
 
 def chamber_bounds_mm(design: Design) -> np.ndarray:
-    """x of the chamber pitches' ends along the bottom face: 0, the clamp's end, then one pitch each."""
-    xc = design.clamp_end_mm
+    """x of the chamber pitches' ends along the bottom face: 0, the proximal chamber's end, then one pitch
+    each (the chambers' own bounds, wherever the clamp ends)."""
+    xc = design.proximal_end_mm
     n = design.chambers.count
     return np.concatenate([[0.0], xc + design.pitch_mm * np.arange(n - 1), [design.length_mm]])
 
@@ -51,7 +52,7 @@ def identify_compliance(design: Design, x: np.ndarray, free_angle: np.ndarray, p
     w = np.exp(-0.5 * ((j[:, None] - j[None, :]) / bandwidth_steps) ** 2)
     num, den = w @ (dh * a), w @ (a * a)
     bounds = chamber_bounds_mm(design)
-    free_hinge = x[:-1] >= bounds[1] - 1e-6
+    free_hinge = x[:-1] >= design.clamp_end_mm - 1e-6
     seg = np.clip(np.searchsorted(bounds, x[:-1], side="right") - 1, 0, len(bounds) - 2)
     onehot = (seg[:, None] == np.arange(len(bounds) - 1)[None, :]) & free_hinge[:, None]
     num_seg, den_seg = num @ onehot, den @ onehot

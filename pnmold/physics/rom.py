@@ -41,7 +41,6 @@ from pnmold.errors import DesignError, RodError, SolveError
 from pnmold.physics.characterisation import Characterisation, distinct_steps
 from pnmold.physics.characterise import characterise
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
-from pnmold.physics.identify import chamber_bounds_mm
 from pnmold.physics.protocol import Protocol
 from pnmold.physics.reading import FRAME, read_bend, read_tip, read_volume
 from pnmold.physics.response import responses, solve_stiffened
@@ -110,7 +109,7 @@ class ReducedModel:
         self.tables = _Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
                               c.max_principal_stretch[k])
         self._onset: dict[float, float] = {}
-        clamp_x = chamber_bounds_mm(design)[1]
+        clamp_x = design.clamp_end_mm
         self.free_edge = x[:-1] >= clamp_x - 1e-6
         base = {"pressure_kpa": self.tables.p, "bend_angle_deg": c.bend_angle_deg[k],
                 "cavity_volume_ml": self.tables.volume_ml, "tip_x_mm": c.tip_x_mm[k], "tip_z_mm": c.tip_z_mm[k],
@@ -265,7 +264,7 @@ class ReducedModel:
         m, cal = protocol.measurement, _calibration(calibration or {})
         tip_x, tip_z = read_tip(tip[:-1, 0], tip[:-1, 1], (tip[-1, 0], tip[-1, 1]), m, cal)
         out = {"pressure_kpa": p.copy(), "tip_x_mm": tip_x, "tip_z_mm": tip_z,
-               "bend_angle_deg": read_bend(bend[:-1], m, self.design.length_mm - self.design.clamp_end_mm),
+               "bend_angle_deg": read_bend(bend[:-1], m, self.design.free_length_mm),
                "cavity_volume_ml": volume[:-1],
                "volume_ml": read_volume(volume[:-1] - volume[-1], volume[-1], p, m, v("dead_volume")),
                "max_principal_stretch": _interp(t.p, t.stretch, p_vol[:-1]),
@@ -316,8 +315,7 @@ def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
 
 def _even_rod(design: Design, c: Characterisation):
     """Rod for a characterisation from steps only: the bend spread evenly over the free length."""
-    bounds = chamber_bounds_mm(design)
-    xc, L = bounds[1], design.length_mm
+    xc, L = design.clamp_end_mm, design.length_mm
     n = max(4 * (design.chambers.count - 1), 4)
     x = np.concatenate([[0.0], np.linspace(xc, L, n + 1)])
     mid = (x[:-1] + x[1:]) / 2
