@@ -20,7 +20,8 @@ TUBE_INTERFERENCE_MAX = 0.3
 
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
-_NON_NEGATIVE = {"chambers.tip_wall_mm", "clamp.length_mm", "material.c20_mpa", "material.c30_mpa", "casting.waste_margin",
+_NON_NEGATIVE = {"chambers.tip_wall_mm", "clamp.length_mm",
+                 "material.c20_mpa", "material.c30_mpa", "casting.waste_margin",
                  "chambers.gap_mm",
                  "layer_material.c10_mpa", "layer_material.c20_mpa", "layer_material.c30_mpa",
                  "layer_material.density_g_per_ml", "layer_material.mix_ratio_a_to_b"}
