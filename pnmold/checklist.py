@@ -55,6 +55,19 @@ def _pour_steps(pour: dict[str, Any], m, material) -> list[str]:
     ]
 
 
+def _sheet_steps(design: Design) -> tuple[str, ...]:
+    """Where the paper goes: on the mold floor, or embedded on a first pour (``paper.depth_mm``)."""
+    where = f"between the four corner stops ({design.paper.inset_mm:g} mm from every edge)"
+    depth = design.paper.depth_mm
+    if depth <= 0:
+        return (f"Lay the paper flat on the bottom mold's floor {where}.",)
+    share = depth / design.bottom_layer.thickness_mm
+    return (f"The sheet lies {depth:g} mm above the bottom face: mix the quantities above in two batches, "
+            f"{100 * share:.0f} % first for the rubber below the sheet and the rest after it has set.",
+            f"Pour the first batch {depth:g} mm deep and level it; let it cure until tack-free.",
+            f"Lay the paper flat on it {where}, pressing out any air under the sheet; mix the second batch.")
+
+
 def _cure_step(material, what: str) -> str:
     if material is None or not material.cure:
         return f"Cure the {what} per the elastomer's datasheet (cure schedule unknown to pnmold)."
@@ -96,6 +109,7 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
     profile = read_profile(DEFAULT_PROFILE)
     px, py = design.paper_size_mm
     paper = design.paper.present
+    embedded = paper and design.paper.depth_mm > 0
     prints = []
     for name, use in USES.items():
         est = slicer.get(name) or {}
@@ -120,10 +134,10 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
             _cure_step(material, "top layer"),
             "Demold: lift the interior mold out, then peel the top layer off the exterior mold's plates.")),
         Section(f"Cast the bottom layer (strain-limiting, {'with the paper' if paper else layer.name})", (
-            *((f"Cut the paper to {px:.1f} x {py:.1f} mm ({design.paper.thickness_mm:g} mm sheet).",
-               "Lay it flat on the bottom mold's floor between the four corner stops "
-               f"({design.paper.inset_mm:g} mm from every edge).") if paper else ()),
+            *((f"Cut the paper to {px:.1f} x {py:.1f} mm ({design.paper.thickness_mm:g} mm sheet).",) if paper else ()),
+            *(_sheet_steps(design) if paper and not embedded else ()),
             *_pour_steps(bottom, layer, layer_library),
+            *(_sheet_steps(design) if embedded else ()),
             f"Pour {'over the paper ' if paper else ''}to the top of the pocket "
             f"({design.bottom_layer.thickness_mm:g} mm deep).",
             "Before it cures, set the cured top layer into it, chambers down, pressing gently so no air stays "

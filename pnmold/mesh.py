@@ -9,8 +9,9 @@ Boundary facets are found from the tetrahedra (each facet oriented outward) and 
 where they lie, using the design's layout: ``cavity`` inside the cores' closure,
 ``clamp`` on the top and bottom faces of the proximal chamber (supplement: "zero
 displacements at the top and bottom face of the proximal pneu-net chamber"),
-``strain_limiting_layer`` on the bottom face under the paper sheet, ``free_end`` at
-x = L, ``symmetry`` on y = 0. No gmsh state leaves this module.
+``strain_limiting_layer`` on the bottom face under the paper sheet (or, for a sheet embedded
+``paper.depth_mm`` above it, the tetrahedra's inner faces on its plane, which the mesh is made
+to conform to), ``free_end`` at x = L, ``symmetry`` on y = 0. No gmsh state leaves this module.
 """
 
 from __future__ import annotations
@@ -74,14 +75,39 @@ def _inside(points: np.ndarray, boxes, tol: float = _TOL) -> np.ndarray:
     return mask
 
 
+#: the faces of a positively oriented tetrahedron (0, 1, 2, 3), wound with the outward normal
+_TET_FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+def _distinct_faces(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each distinct triangle of the tetrahedra (as first wound) and how many tetrahedra share it."""
+    faces = tets[:, _TET_FACES].reshape(-1, 3)
+    _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_counts=True)
+    return faces[index], counts
+
+
 def boundary_facets(tets: np.ndarray) -> np.ndarray:
     """Facets that belong to one tetrahedron only, wound with the outward normal."""
-    # faces of a positively oriented tet (0,1,2,3) with outward normals
-    local = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    faces = tets[:, local].reshape(-1, 3)
-    key = np.sort(faces, axis=1)
-    _, index, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
-    return faces[index[counts == 1]]
+    faces, counts = _distinct_faces(tets)
+    return faces[counts == 1]
+
+
+def _in_paper_outline(centre: np.ndarray, design: Design) -> np.ndarray:
+    px, py = design.paper_size_mm
+    i = design.paper.inset_mm
+    x = centre[:, 0]
+    return (x >= i - _TOL) & (x <= i + px + _TOL) & (np.abs(centre[:, 1]) <= py / 2 + _TOL)
+
+
+def embedded_sheet(nodes: np.ndarray, tets: np.ndarray, design: Design) -> np.ndarray:
+    """The inner faces on the plane of a sheet embedded ``paper.depth_mm`` above the bottom face, within
+    its outline (none for a sheet on the bottom face or no sheet)."""
+    if not design.paper.present or design.paper.depth_mm <= 0:
+        return np.zeros((0, 3), np.int64)
+    faces, _ = _distinct_faces(tets)
+    p = nodes[faces]
+    flat = np.all(np.abs(p[:, :, 2] - design.paper.depth_mm) < _TOL, axis=1)
+    return faces[flat & _in_paper_outline(p.mean(axis=1), design)]
 
 
 def name_facets(nodes: np.ndarray, facets: np.ndarray, design: Design, half: bool) -> dict[str, np.ndarray]:
@@ -95,10 +121,7 @@ def name_facets(nodes: np.ndarray, facets: np.ndarray, design: Design, half: boo
     proximal = x <= design.clamp_end_mm + _TOL
     top = (np.abs(z - design.height_mm) < _TOL) & (normal[:, 2] > 0.99)
     bottom = (np.abs(z) < _TOL) & (normal[:, 2] < -0.99)
-    px, py = design.paper_size_mm
-    i = design.paper.inset_mm
-    under_paper = bottom & (x >= i - _TOL) & (x <= i + px + _TOL) & (np.abs(centre[:, 1]) <= py / 2 + _TOL)
-    under_paper &= design.paper.present
+    under_paper = bottom & _in_paper_outline(centre, design) & design.paper.present & (design.paper.depth_mm <= 0)
     free_end = (np.abs(x - design.length_mm) < _TOL) & (normal[:, 0] > 0.99)
     named = {CAVITY: cavity, CLAMP: proximal & (top | bottom), STRAIN_LIMITING_LAYER: under_paper,
              FREE_END: free_end}
@@ -130,7 +153,8 @@ def _geometry(step: Path, design: Design, half: bool) -> list[int]:
     if design.paper.present:
         px, py = design.paper_size_mm
         y0 = 0.0 if half else -py / 2
-        tools.append((2, occ.addRectangle(design.paper.inset_mm, y0, 0.0, px, py / 2 if half else py)))
+        tools.append((2, occ.addRectangle(design.paper.inset_mm, y0, design.paper.depth_mm, px,
+                                          py / 2 if half else py)))
     x_clamp = design.clamp_end_mm
     cut = occ.addRectangle(-2.0, -design.width_mm, 0.0, design.height_mm + 4, 2 * design.width_mm)
     occ.rotate([(2, cut)], 0, 0, 0, 0, 1, 0, -np.pi / 2)
@@ -232,6 +256,8 @@ def mesh_actuator(step: str | Path, design: Design, size: MeshSize | None = None
     vol = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]) / 6
     tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
     facets = name_facets(nodes, boundary_facets(tets), design, size.half)
+    if design.paper.depth_mm > 0:
+        facets[STRAIN_LIMITING_LAYER] = embedded_sheet(nodes, tets, design)
     for name in (CAVITY, CLAMP, FREE_END):
         if len(facets[name]) == 0:
             raise MeshingError(f"{step}: no facets found for the boundary {name!r}")

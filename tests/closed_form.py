@@ -32,8 +32,10 @@ def gaps_mm3(d: Design) -> float:
 
 
 def stops_mm3(d: Design) -> float:
+    """The four L-shaped paper stops, rising a seat's height above the sheet's depth (none without paper)."""
     m = d.mold
-    return 4 * m.seat_height_mm * (m.seat_width_mm ** 2 + 2 * m.seat_width_mm * m.seat_arm_mm)
+    h = d.paper.depth_mm + m.seat_height_mm if d.paper.present else 0.0
+    return 4 * h * (m.seat_width_mm ** 2 + 2 * m.seat_width_mm * m.seat_arm_mm)
 
 
 def bore_parts_mm3(d: Design) -> tuple[float, float]:

@@ -22,6 +22,7 @@ _FLOATS = {
     "top_layer.floor_mm": (1.2, 5.0),
     "bottom_layer.thickness_mm": (1.2, 5.0),
     "paper.inset_mm": (1.6, 5.0),
+    "paper.depth_mm": (0.3, 3.0),
     "inlet.diameter_mm": (1.7, 2.6),
     "inlet.axis_offset_mm": (-0.6, 0.6),
     "mold.wall_mm": (0.7, 6.0),

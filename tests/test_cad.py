@@ -127,19 +127,38 @@ def test_a_rubber_layer_without_paper_builds_and_passes_the_gate(tmp_path):
     assert "paper" not in (result.out_dir / "checklist.md").read_text().split("## 3.")[1].split("## 4.")[0]
 
 
-def test_a_tip_wall_of_its_own_lengthens_the_body_and_passes_the_gate(tmp_path):
-    """``chambers.tip_wall_mm`` (another lab's segment whose distal wall is not an inside wall):
-    the body ends that far past the last chamber, every part keeps its closed-form volume,
-    the actuator's STL spans the new length and every check passes."""
+def _built_to_closed_form(design, out):
+    """Build ``design`` without FE or slicer; every check passes and every part has its closed-form volume."""
     from pnmold.pipeline import build
 
-    base = load_design("spn")
-    design = load_design("spn", ["chambers.tip_wall_mm=3.3"])
-    assert design.length_mm == pytest.approx(base.length_mm - base.chambers.inside_wall_mm + 3.3)
-    result = build(design, tmp_path / "tip", fem=False, use_slicer=False)
+    result = build(design, out, fem=False, use_slicer=False)
     assert result.exit_code == 0, result.failed_checks
     expected = part_volumes_mm3(design)
     for name in design.part_names:
         assert result.report["parts"][name]["volume_mm3"] == pytest.approx(expected[name], rel=2e-4), name
+    return result
+
+
+def test_a_tip_wall_of_its_own_lengthens_the_body_and_passes_the_gate(tmp_path):
+    """``chambers.tip_wall_mm`` (another lab's segment whose distal wall is not an inside wall):
+    the body ends that far past the last chamber, every part keeps its closed-form volume,
+    the actuator's STL spans the new length and every check passes."""
+    base = load_design("spn")
+    design = load_design("spn", ["chambers.tip_wall_mm=3.3"])
+    assert design.length_mm == pytest.approx(base.length_mm - base.chambers.inside_wall_mm + 3.3)
+    result = _built_to_closed_form(design, tmp_path / "tip")
     lo, hi = load_stl(result.out_dir / "actuator.stl").bounds
     assert hi[0] - lo[0] == pytest.approx(design.length_mm, abs=1e-4)  # STL: float32
+
+
+def test_an_embedded_sheet_lies_on_its_first_pour_and_passes_the_gate(tmp_path):
+    """``paper.depth_mm`` (a sheet embedded in the bottom layer on a first pour of rubber):
+    the paper lies that high, the mold's stops rise a seat's height above it to locate its corners,
+    every part keeps its closed-form volume and every check passes."""
+    design = load_design("fpn", ["bottom_layer.thickness_mm=3", "paper.depth_mm=1"])
+    result = _built_to_closed_form(design, tmp_path / "embedded")
+    lo, hi = load_stl(result.out_dir / "paper.stl").bounds
+    assert (lo[2], hi[2]) == pytest.approx((1.0, 1.0 + design.paper.thickness_mm), abs=1e-4)
+    text = (result.out_dir / "checklist.md").read_text()
+    assert text.index("Pour the first batch 1 mm deep") < text.index("Lay the paper flat on it") < text.index(
+        "Pour over the paper")

@@ -13,7 +13,8 @@ from pnmold.cli import main
 # the supplement's steps, in the order they must come
 ORDER = ["Print `print/mold_interior.stl`", "Print `print/mold_exterior.stl`", "Print `print/mold_bottom.stl`",
          "Turn the exterior mold over", "Degas", "Pour into the exterior mold", "Press the interior mold in",
-         "Cure the top layer", "Demold: lift the interior mold", "Cut the paper", "Lay it flat on the bottom mold",
+         "Cure the top layer", "Demold: lift the interior mold", "Cut the paper",
+         "Lay the paper flat on the bottom mold",
          "Pour over the paper", "set the cured top layer into it", "Cure the bonded actuator", "Elastosil E951",
          "Punch the inlet with a 2 mm biopsy punch", "tubing of 0.79 mm ID, 2.38 mm OD", "Leak test",
          "Clamp the top and bottom faces of the first", "Bending test", "Safety limit",

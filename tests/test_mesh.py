@@ -144,3 +144,19 @@ def test_a_longer_clamp_holds_the_top_and_bottom_faces_that_far(tmp_path):
     held = (outer[..., 0].max(axis=1) <= 20.0 + 1e-6) & (np.all(z < 1e-6, axis=1)
                                                         | np.all(z > design.height_mm - 1e-6, axis=1))
     assert area(tri) == pytest.approx(area(outer[held]), rel=1e-9)  # all of the top and bottom up to 20 mm
+
+
+def test_an_embedded_sheet_is_the_inner_faces_on_its_plane(tmp_path):
+    """``paper.depth_mm``: the mesh conforms to the sheet's plane inside the bottom layer; its facets are
+    inner faces there (two tetrahedra each), covering the sheet's half outline, none on the bottom face."""
+    from pnmold.cad import export_actuator_step
+
+    design = load_design("fpn", ["bottom_layer.thickness_mm=3", "paper.depth_mm=1"])
+    mesh, _ = mesh_actuator(export_actuator_step(design, tmp_path), design, MeshSize(3.5, 7.0))
+    tri = mesh.nodes_mm[mesh.facets[STRAIN_LIMITING_LAYER]]
+    assert np.allclose(tri[..., 2], 1.0)
+    px, py = design.paper_size_mm
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    assert area == pytest.approx(px * py / 2, rel=1e-6)
+    outer = {tuple(sorted(f)) for f in boundary_facets(mesh.tets)}
+    assert not any(tuple(sorted(f)) in outer for f in mesh.facets[STRAIN_LIMITING_LAYER])

@@ -104,6 +104,27 @@ def test_a_longer_clamp_leaves_fewer_chambers_to_bend(exported):
     assert 0.8 * free < held < 0.97 * free
 
 
+def test_an_embedded_sheet_still_limits_the_strain_at_its_depth(exported):
+    """``paper.depth_mm``: the sheet 1 mm inside a 3 mm bottom layer keeps its length as the fPN bends
+    (the line of its plane on y = 0 stretches < 1 %) while the roof's line stretches; the rubber below it
+    is compressed (its bottom line shortens)."""
+    design, step = exported("fpn", "bottom_layer.thickness_mm=3", "paper.depth_mm=1")
+    run = run_fe(design, step_path=step, size=COARSE, orientation="none", pressures_kpa=[5.0])
+    nodes, shape = run.mesh.nodes_mm, run.solution.shapes_mm[-1]
+    x0, x1 = design.paper.inset_mm, design.length_mm - design.paper.inset_mm
+
+    def stretch(z: float) -> float:
+        on = np.flatnonzero((np.abs(nodes[:, 1]) < 1e-6) & (np.abs(nodes[:, 2] - z) < 1e-6)
+                            & (nodes[:, 0] > x0 + 1e-6) & (nodes[:, 0] < x1 - 1e-6))
+        on = on[np.argsort(nodes[on, 0])]
+        moved = nodes[on] + shape[on]
+        return float(np.linalg.norm(np.diff(moved, axis=0), axis=1).sum() / np.ptp(nodes[on, 0]))
+
+    assert run.solution.steps[-1].bend_angle_deg > 20
+    assert abs(stretch(1.0) - 1.0) < 0.01
+    assert stretch(design.height_mm) > 1.05 and stretch(0.0) < 0.995
+
+
 @pytest.mark.slow
 def test_fpn_bends_more_than_spn_for_less_volume(exported):
     fpn = _curve(exported, "fpn", pressures_kpa=[4.0, 8.0])

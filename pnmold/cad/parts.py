@@ -4,7 +4,8 @@ Top layer: each chamber is a block with its own walls (fPN) or one block with sh
 walls (sPN); the cavities open downward onto the bottom layer, and the 1 mm channel runs
 along y = 0 at the bottom, from halfway into the proximal end wall to the last cavity.
 Bottom layer: a slab whose underside carries the dimples of the mold's paper stops; the
-paper lies flush on the mold floor (z = 0) inside it. Actuator: both layers bonded, with
+paper lies flush on the mold floor (z = 0) inside it, or ``paper.depth_mm`` above it on a first
+pour of rubber (the stops then rise that much higher to locate its corners there). Actuator: both layers bonded, with
 the inlet punched along +x from the end face into the channel.
 """
 
@@ -68,7 +69,7 @@ def paper_seat_stops(design: Design) -> list[cq.Shape]:
         return []
     m, p = design.mold, design.paper
     px, py = design.paper_size_mm
-    x0, y0, h, w, a = p.inset_mm, -py / 2, m.seat_height_mm, m.seat_width_mm, m.seat_arm_mm
+    x0, y0, h, w, a = p.inset_mm, -py / 2, design.seat_top_mm, m.seat_width_mm, m.seat_arm_mm
     stops = []
     for sx in (0, 1):
         for sy in (0, 1):
@@ -93,8 +94,9 @@ def bottom_layer(design: Design) -> cq.Shape:
 
 def paper(design: Design) -> cq.Shape:
     px, py = design.paper_size_mm
+    z0 = design.paper.depth_mm
     return box("paper", (design.paper.inset_mm, design.paper.inset_mm + px), (-py / 2, py / 2),
-               (0.0, design.paper.thickness_mm))
+               (z0, z0 + design.paper.thickness_mm))
 
 
 def actuator(design: Design, top: cq.Shape, bottom: cq.Shape) -> cq.Shape:

@@ -110,6 +110,12 @@ class Paper:
         "paper sheet thickness; it lies on the mold floor (z = 0)",
         "assumed (80 g/m2 office paper)",
     )
+    depth_mm: float = _f(
+        0.0,
+        "height of the sheet above the bottom face: 0 lays it on the mold floor (the supplement's); more "
+        "embeds it, with that much rubber below it (poured first and cured) resisting the bend",
+        "-",
+    )
     inset_mm: float = _f(2.0, "margin from the paper's edge to the layer's edge", "assumed")
     modulus_mpa: float = _f(6500.0, "Young's modulus of the paper", SUPPLEMENT + ": E = 6.5 GPa")
     poisson: float = _f(0.2, "Poisson's ratio of the paper", SUPPLEMENT + ": nu = 0.2")
@@ -356,6 +362,12 @@ class Design:
     def paper_size_mm(self) -> tuple[float, float]:
         """Paper cut size (x, y)."""
         return (self.length_mm - 2 * self.paper.inset_mm, self.width_mm - 2 * self.paper.inset_mm)
+
+    @property
+    def seat_top_mm(self) -> float:
+        """Height of the corner stops that locate the paper: above its depth by ``mold.seat_height_mm``
+        (0 without paper)."""
+        return self.paper.depth_mm + self.mold.seat_height_mm if self.paper.present else 0.0
 
     @property
     def printable_wall_mm(self) -> float:

@@ -20,7 +20,7 @@ TUBE_INTERFERENCE_MAX = 0.3
 
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
-_NON_NEGATIVE = {"chambers.tip_wall_mm", "clamp.length_mm",
+_NON_NEGATIVE = {"chambers.tip_wall_mm", "clamp.length_mm", "paper.depth_mm",
                  "material.c20_mpa", "material.c30_mpa", "casting.waste_margin",
                  "chambers.gap_mm",
                  "layer_material.c10_mpa", "layer_material.c20_mpa", "layer_material.c30_mpa",
@@ -64,10 +64,9 @@ def _check_elastomer(design: Design) -> None:
                          ("chambers.tip_wall_mm", design.tip_wall_mm)):
         _need(value >= lim, field, f"{value} mm is below the castable minimum "
               f"casting.min_elastomer_wall_mm = {lim} mm")
-    stops = design.mold.seat_height_mm if design.paper.present else 0.0
-    bottom = design.bottom_layer.thickness_mm - stops
+    bottom = design.bottom_layer.thickness_mm - design.seat_top_mm
     _need(bottom >= lim, "bottom_layer.thickness_mm",
-          f"leaves {bottom:.3g} mm of elastomer over the paper stops (mold.seat_height_mm); "
+          f"leaves {bottom:.3g} mm of elastomer over the paper stops (paper.depth_mm + mold.seat_height_mm); "
           f"needs at least {lim} mm")
     remaining = c.end_wall_mm - design.channel_x_mm[0]
     _need(remaining >= lim, "chambers.end_wall_mm",
@@ -119,7 +118,7 @@ def _check_channel_and_inlet(design: Design) -> None:
     _need(abs(inlet.axis_offset_mm) < ch.height_mm / 2 + r, "inlet.axis_offset_mm",
           f"{inlet.axis_offset_mm} mm puts the bore beside the channel: it must reach it")
     bottom = design.inlet_axis_z_mm - r
-    paper = design.paper.thickness_mm if design.paper.present else 0.0
+    paper = design.paper.depth_mm + design.paper.thickness_mm if design.paper.present else 0.0
     _need(bottom >= paper + design.casting.min_elastomer_wall_mm,
           "inlet.diameter_mm", f"the bore's bottom at z = {bottom:.3g} mm would cut into the paper "
           f"(needs {design.casting.min_elastomer_wall_mm} mm of elastomer above it)")
@@ -167,6 +166,9 @@ def _check_paper(design: Design) -> None:
           f"leaves a {px:.3g} x {py:.3g} mm sheet, too small for the corner stops "
           f"(mold.seat_arm_mm = {m.seat_arm_mm} mm)")
     _need(p.poisson < 0.5, "paper.poisson", f"must be below 0.5, got {p.poisson}")
+    _need(p.depth_mm == 0 or p.depth_mm >= lim, "paper.depth_mm",
+          f"{p.depth_mm} mm of rubber below the sheet is thinner than casts reliably "
+          f"(casting.min_elastomer_wall_mm = {lim} mm); 0 lays the sheet on the mold floor")
 
 
 def _check_build_volume(design: Design) -> None:

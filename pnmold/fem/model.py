@@ -204,9 +204,10 @@ class Model:
         normal = np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]])
         opposite = p[sk.t[:, tet].T].mean(axis=1) - p[f].mean(axis=1)
         flip = np.einsum("ij,ij->i", normal, opposite) > 0
-        if flip.any():
+        outer = sk.f2t[1, order[pos]] < 0  # an inner face (an embedded sheet's) has no outward side
+        if (flip & outer).any():
             log.warning("facet set %r: %d of %d triangles re-oriented outward", name,
-                        int(flip.sum()), len(f))
+                        int((flip & outer).sum()), len(f))
             f[flip] = f[flip][:, [0, 2, 1]]
         edges = [n + self._edge_ids(f[:, i], f[:, j]) for i, j in _TRI_EDGES]
         return np.ascontiguousarray(np.column_stack([f, *edges]))
