@@ -8,7 +8,8 @@ By default only the half y >= 0 is meshed (the ``symmetry`` plane carries u_y = 
 Boundary facets are found from the tetrahedra (each facet oriented outward) and named by
 where they lie, using the design's layout: ``cavity`` inside the cores' closure,
 ``clamp`` on the top and bottom faces of the proximal chamber (supplement: "zero
-displacements at the top and bottom face of the proximal pneu-net chamber"),
+displacements at the top and bottom face of the proximal pneu-net chamber"), or of the first
+``clamp.length_mm``,
 ``strain_limiting_layer`` on the bottom face under the paper sheet (or, for a sheet embedded
 ``paper.depth_mm`` above it, the tetrahedra's inner faces on its plane, which the mesh is made
 to conform to), ``free_end`` at x = L, ``symmetry`` on y = 0. No gmsh state leaves this module.

@@ -12,7 +12,7 @@ import numpy as np
 
 #: Named facet sets a TetMesh of an actuator carries.
 CAVITY = "cavity"  # every face of the chambers, the channel and the inlet bore
-CLAMP = "clamp"  # top and bottom faces of the proximal chamber (zero displacement)
+CLAMP = "clamp"  # top and bottom faces up to the clamp's end (the proximal chamber's; zero displacement)
 STRAIN_LIMITING_LAYER = "strain_limiting_layer"  # bottom-face facets under the paper sheet
 FREE_END = "free_end"  # the distal end face (x = L), for the bend angle
 SYMMETRY = "symmetry"  # the y = 0 plane of a half model (u_y = 0)
