@@ -134,11 +134,17 @@ def main() -> None:
     if "error" not in bend:
         print(f"bending: RMS bend-angle error after calibration {100 * bend_rms_share(bend, measured):.1f} % of the "
               f"measured range ({np.ptp(measured):.1f} deg); target 10 %")
-    pv = docs["pv"]
-    if "error" not in pv:
-        dead = [m["parameters"].get("dead_volume") for m in pv["missing_physics"] if m["effect"] == "dead_volume"]
-        print(f"pv: dead_volume {dead[0]:.1f} mL against the Boyle bound {min(bound):.1f} mL" if dead
-              else "pv: dead_volume not named")
+    for label in ("pv", "both"):
+        doc = docs[label]
+        if "error" in doc:
+            continue
+        dead = [m for m in doc["missing_physics"] if m["effect"] == "dead_volume"]
+        if not dead:
+            print(f"{label}: dead_volume not named")
+            continue
+        check = dead[0].get("rig_check") or {}
+        print(f"{label}: dead_volume {dead[0]['parameters']['dead_volume']:.1f} mL; the diagnosis's own rig check: at "
+              f"most {check.get('air_bound_ml', float('nan')):.1f} mL of air, consistent {check.get('consistent')}")
 
 
 if __name__ == "__main__":

@@ -105,6 +105,30 @@ def test_a_piston_rigs_air_column_is_named_dead_volume_with_its_size(tmp_path):
     assert [m["effect"] for m in d["missing_physics"]] == ["dead_volume"]
     assert d["missing_physics"][0]["parameters"]["dead_volume"] == pytest.approx(120.0, rel=0.05)
     assert d["calibration"]["final"]["modulus_scale"] == pytest.approx(0.9, rel=0.05)
+    check = d["missing_physics"][0]["rig_check"]  # the recording's own rows bound the air: 120 mL fits
+    assert check["consistent"] and check["air_bound_ml"] >= 120.0 and "is within it" in d["summary"]
+
+
+def test_the_rows_of_a_piston_recording_bound_its_air_column():
+    """Boyle's law on the recording alone: the stroke at each row went into the cavity (>= 0) and the
+    air, so the air is at most stroke x (p_atm + p) / p; a dead volume above that is said to be too large.
+    Other rigs have no such bound."""
+    from pnmold.diagnose.explain import air_column_bound, dead_volume_check
+    from pnmold.recording import Recording
+
+    p = np.array([0.0, 1.0, 5.0, 10.0, 20.0])
+    cavity = np.array([0.0, 0.0, 0.1, 0.3, 1.0])  # the cavity's own change, mL
+    air, rest = 60.0, 1.0
+    stroke = cavity + (air + rest) * p / (P_ATM_KPA + p)
+    rec = Recording("pv.csv", "pv", {"pressure_kpa": p, "volume_ml": stroke}, {},
+                    measurement=Measurement(rig="volume", medium="air"))
+    bound = air_column_bound(rec, rest)
+    # rows below 10 % of the top pressure are left out; at 5 kPa: 60 + 0.1 x 106.3 / 5
+    assert bound["pressure_kpa"] == 5.0 and bound["bound_ml"] == pytest.approx(air + 0.1 * (P_ATM_KPA + 5) / 5)
+    assert dead_volume_check(60.0, 1.0, bound)[0]
+    fits, words = dead_volume_check(80.0, 1.0, bound)
+    assert not fits and "too large" in words and f"{bound['bound_ml']:.3g} mL" in words
+    assert air_column_bound(Recording("pv.csv", "pv", rec.columns, {}, measurement=Measurement()), rest) is None
 
 
 @pytest.mark.slow

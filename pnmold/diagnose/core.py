@@ -106,7 +106,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         "heldout_rmse_after": _rmse(data, final.heldout_z, observable),
     }
     by_name = {e.name: e for e in effects}
-    missing = []
+    missing, rig_notes = [], []
     for cand in decision.accepted:
         name = cand.fit.hypothesis.effects[-1]
         effect = by_name[name]
@@ -121,6 +121,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
             "explanation": explain.explanation(effect, values, spread, mismatch, fit["heldout_rmse_before"],
                                                fit["heldout_rmse_after"], unit),
         })
+        if name == "dead_volume":
+            rig_notes += _check_rig(missing[-1], recordings, final.fit.predictions)
     excess = excess_sigma(final.heldout_chi2, final.heldout_z.size)
     if decision.unexplained:
         summary = explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects])
@@ -128,7 +130,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         summary = explain.nothing_missing(fit["heldout_rmse_after"], unit, excess)
     else:
         summary = " ".join(m["explanation"] for m in missing)
-    summary = " ".join([explain.calibrated(final.fit.values), *notes, summary])
+    summary = " ".join([explain.calibrated(final.fit.values), *notes, summary, *rig_notes])
     doc = {
         "schema": SCHEMA,
         "design": design_entry,
@@ -152,6 +154,25 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         "seconds": round(time.perf_counter() - t0, 3),
     }
     return Diagnosis(doc, data, decision, time.perf_counter() - t0)
+
+
+def _check_rig(entry: dict[str, Any], recordings: Sequence[Recording],
+               predictions: list[dict[str, np.ndarray]]) -> list[str]:
+    """A named dead volume against the air column a volume-driven air rig's own rows allow
+    (:func:`explain.air_column_bound`): ``rig_check`` in the entry; the words for the summary."""
+    for rec, pred in zip(recordings, predictions, strict=True):
+        if "cavity_volume_ml" not in pred:
+            continue
+        rest = float(np.asarray(pred["cavity_volume_ml"], float)[int(np.argmin(rec.columns["pressure_kpa"]))])
+        bound = explain.air_column_bound(rec, rest)
+        if bound is None:
+            continue
+        fits, words = explain.dead_volume_check(entry["parameters"]["dead_volume"],
+                                                entry["uncertainty"]["dead_volume"], bound)
+        entry["rig_check"] = {"recording": rec.path, "air_bound_ml": round(bound["bound_ml"], 4),
+                              "at_pressure_kpa": bound["pressure_kpa"], "consistent": fits, "words": words}
+        return [words]
+    return []
 
 
 def _prediction(forward: Forward, recordings: Sequence[Recording], calibration: dict[str, float]

@@ -39,6 +39,45 @@ def explanation(effect, values: dict[str, float], spread: dict[str, float], mism
             f"error fell from {rmse_before:.3g} to {rmse_after:.3g} {unit}.")
 
 
+#: rows of a P-V recording above this share of its top pressure bound its air column (below it, the
+#: pressure's reading error is too large a share of the pressure; assumed)
+AIR_BOUND_SHARE = 0.1
+
+
+def air_column_bound(recording, cavity_rest_ml: float) -> dict[str, float] | None:
+    """The most air (mL, besides the cavity's own and the stated column) a volume-driven air rig can
+    hold, from its recording alone: at every row the piston's stroke v went into the cavity (a change
+    >= 0) and into compressing the air, so Boyle's law gives V_air <= v (p_atm + p) / p; the
+    smallest over the rows above :data:`AIR_BOUND_SHARE` of the top pressure. None for other rigs."""
+    m = recording.measurement
+    if recording.kind != "pv" or m.rig != "volume" or m.medium != "air":
+        return None
+    p = np.asarray(recording.columns["pressure_kpa"], float)
+    v = np.asarray(recording.columns["volume_ml"], float)
+    rows = np.flatnonzero((p > 0) & (p >= AIR_BOUND_SHARE * p.max()))
+    if rows.size == 0:
+        return None
+    from pnmold.physics.reading import P_ATM_KPA
+
+    gas = v[rows] * (P_ATM_KPA + p[rows]) / p[rows]
+    i = rows[int(np.argmin(gas))]
+    return {"bound_ml": float(gas.min()) - cavity_rest_ml - m.air_column_ml, "pressure_kpa": float(p[i]),
+            "stroke_ml": float(v[i]), "cavity_rest_ml": cavity_rest_ml}
+
+
+def dead_volume_check(value_ml: float, spread_ml: float, bound: dict[str, float]) -> tuple[bool, str]:
+    """Whether a named dead volume fits under the recording's own bound, and the words saying so."""
+    fits = value_ml - spread_ml <= bound["bound_ml"]
+    how = (f"the recording's own rows allow at most {bound['bound_ml']:.3g} mL of air (Boyle's law at "
+           f"{bound['pressure_kpa']:.3g} kPa: all of the piston's {bound['stroke_ml']:.3g} mL into air, less the "
+           f"cavity's own {bound['cavity_rest_ml']:.3g} mL)")
+    if fits:
+        return True, f"Checked against the rig: {how}; {value_ml:.3g} mL is within it."
+    return False, (f"Checked against the rig: {how}; {value_ml:.3g} mL is more, so it is too large: the model's "
+                   f"cavity takes too little of the stroke where the pressure is high and the air column makes up "
+                   f"for it. Check the design's chambers (their size and how much their walls balloon).")
+
+
 def calibrated(values: dict[str, float]) -> str:
     """The calibrated nominal values, in words (always shown: the answer rests on them)."""
     parts = [f"the rubber's modulus x {values['modulus_scale']:.3g} of the design's"]
