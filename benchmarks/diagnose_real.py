@@ -41,6 +41,12 @@ BENDING = DATA / "marchese2015_ribbed_bending.csv"
 DESIGN = ROOT / "benchmarks" / "designs" / "marchese2015-ribbed.toml"
 #: the paper's bending length: bend angle = curvature x 0.043 m (the data file's header)
 BENDING_LENGTH_MM = 43.0
+#: the rig's stated accuracy, from the lab's own error estimate in the script the data come from
+#: (plotBACharacterizations_colored.m, calculateEnergyError): the pressure transducer (Honeywell
+#: ASDXACX015PAAA5) 2 % of its 15 psi full scale, and the piston's 0.3 mm position accuracy (Firgelli L16)
+#: times its area (3.81 cm bore: 11.40 cm^2; the script squares the diameter, 0.435 mL)
+PRESSURE_ACCURACY_KPA = 0.02 * 15 * 6.894757
+VOLUME_ACCURACY_ML = 0.03 * 3.141592653589793 * (3.81 / 2) ** 2
 SOURCE = "Marchese, Katzschmann & Rus, Soft Robotics 2015, ribbed segment (shared/data; no licence: testing only)"
 
 
@@ -60,7 +66,9 @@ def write_recordings(out: Path) -> dict[str, Path]:
                                                   "bend_angle_deg": data["bend_angle_deg"]},
                     {**common, "bending_length_mm": f"{BENDING_LENGTH_MM:g}"})
     write_recording(paths["pv"], "pv", {"volume_ml": data["volume_ml"], "pressure_kpa": data["pressure_kpa"]},
-                    {**common, "rig": "volume", "medium": "air"})
+                    {**common, "rig": "volume", "medium": "air",
+                     "pressure_accuracy_kpa": f"{PRESSURE_ACCURACY_KPA:.4g}",
+                     "volume_accuracy_ml": f"{VOLUME_ACCURACY_ML:.4g}"})
     return paths
 
 
@@ -143,8 +151,11 @@ def main() -> None:
             print(f"{label}: dead_volume not named")
             continue
         check = dead[0].get("rig_check") or {}
-        print(f"{label}: dead_volume {dead[0]['parameters']['dead_volume']:.1f} mL; the diagnosis's own rig check: at "
-              f"most {check.get('air_bound_ml', float('nan')):.1f} mL of air, consistent {check.get('consistent')}")
+        print(f"{label}: dead_volume {dead[0]['parameters']['dead_volume']:.1f} +- "
+              f"{dead[0]['uncertainty']['dead_volume']:.1f} mL; the diagnosis's own rig check: at most "
+              f"{check.get('air_bound_ml', float('nan')):.1f} mL of air within the rig's stated accuracy "
+              f"({check.get('air_bound_as_recorded_ml', float('nan')):.1f} mL as recorded), consistent "
+              f"{check.get('consistent')}")
 
 
 if __name__ == "__main__":

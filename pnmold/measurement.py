@@ -41,6 +41,10 @@ KEYS = {
     "air_column_ml": (("pv",), "known volume of air at atmospheric pressure between the piston (or meter) and "
                       "the actuator, e.g. the tubing and the cylinder's dead space (default 0; an unknown one is "
                       "what the dead_volume effect finds)"),
+    "pressure_accuracy_kpa": (("pv",), "the rig's stated pressure accuracy (e.g. from the transducer's datasheet; "
+                              "default 0): a named dead volume is checked against the air the rows allow within it"),
+    "volume_accuracy_ml": (("pv",), "the rig's stated volume accuracy (e.g. the piston's position accuracy times "
+                           "its area; default 0), used alike"),
 }
 
 
@@ -53,6 +57,8 @@ class Measurement:
     rig: str = "volume"
     medium: str = "water"
     air_column_ml: float = 0.0
+    pressure_accuracy_kpa: float = 0.0
+    volume_accuracy_ml: float = 0.0
 
     @property
     def compresses_air(self) -> bool:
@@ -83,4 +89,5 @@ def measurement_of(metadata: Mapping[str, str], path: str) -> Measurement:
 
     return Measurement(choice("tip_origin", TIP_ORIGINS, "clamp"), number("bending_length_mm", True),
                        choice("rig", RIGS, "volume"), choice("medium", MEDIA, "water"),
-                       number("air_column_ml", False) or 0.0)
+                       number("air_column_ml", False) or 0.0, number("pressure_accuracy_kpa", False) or 0.0,
+                       number("volume_accuracy_ml", False) or 0.0)

@@ -129,6 +129,15 @@ def test_the_rows_of_a_piston_recording_bound_its_air_column():
     fits, words = dead_volume_check(80.0, 1.0, bound)
     assert not fits and "too large" in words and f"{bound['bound_ml']:.3g} mL" in words
     assert air_column_bound(Recording("pv.csv", "pv", rec.columns, {}, measurement=Measurement()), rest) is None
+    # the rig's stated accuracy reads every row at its most generous: more stroke, less pressure
+    loose = air_column_bound(Recording("pv.csv", "pv", rec.columns, {}, measurement=Measurement(
+        rig="volume", medium="air", pressure_accuracy_kpa=1.0, volume_accuracy_ml=0.1)), rest)
+    assert loose["exact_ml"] == pytest.approx(bound["bound_ml"])
+    widest = min((v + 0.1) * (P_ATM_KPA + q - 1.0) / (q - 1.0) for q, v in zip(p[2:], stroke[2:], strict=True))
+    assert loose["bound_ml"] == pytest.approx(widest - rest)
+    assert not dead_volume_check(70.0, 1.0, bound)[0]  # above the readings' bound (62.1 mL) ...
+    fits, words = dead_volume_check(70.0, 1.0, loose)  # ... within the rig's accuracy (69.7 mL)
+    assert fits and "within the rig's stated accuracy (+-1 kPa, +-0.1 mL" in words
 
 
 @pytest.mark.slow

@@ -170,6 +170,7 @@ def _check_rig(entry: dict[str, Any], recordings: Sequence[Recording],
         fits, words = explain.dead_volume_check(entry["parameters"]["dead_volume"],
                                                 entry["uncertainty"]["dead_volume"], bound)
         entry["rig_check"] = {"recording": rec.path, "air_bound_ml": round(bound["bound_ml"], 4),
+                              "air_bound_as_recorded_ml": round(bound["exact_ml"], 4),
                               "at_pressure_kpa": bound["pressure_kpa"], "consistent": fits, "words": words}
         return [words]
     return []

@@ -48,7 +48,9 @@ def air_column_bound(recording, cavity_rest_ml: float) -> dict[str, float] | Non
     """The most air (mL, besides the cavity's own and the stated column) a volume-driven air rig can
     hold, from its recording alone: at every row the piston's stroke v went into the cavity (a change
     >= 0) and into compressing the air, so Boyle's law gives V_air <= v (p_atm + p) / p; the
-    smallest over the rows above :data:`AIR_BOUND_SHARE` of the top pressure. None for other rigs."""
+    smallest over the rows above :data:`AIR_BOUND_SHARE` of the top pressure. With the rig's stated
+    accuracies (metadata) the rows are read at their most generous (v + dv, p - dp): ``bound_ml`` is
+    then that, ``exact_ml`` the bound of the readings as recorded. None for other rigs."""
     m = recording.measurement
     if recording.kind != "pv" or m.rig != "volume" or m.medium != "air":
         return None
@@ -59,16 +61,25 @@ def air_column_bound(recording, cavity_rest_ml: float) -> dict[str, float] | Non
         return None
     from pnmold.physics.reading import P_ATM_KPA
 
-    gas = v[rows] * (P_ATM_KPA + p[rows]) / p[rows]
-    i = rows[int(np.argmin(gas))]
-    return {"bound_ml": float(gas.min()) - cavity_rest_ml - m.air_column_ml, "pressure_kpa": float(p[i]),
-            "stroke_ml": float(v[i]), "cavity_rest_ml": cavity_rest_ml}
+    exact = v[rows] * (P_ATM_KPA + p[rows]) / p[rows]
+    low = p[rows] - m.pressure_accuracy_kpa
+    widest = np.where(low > 0, (v[rows] + m.volume_accuracy_ml) * (P_ATM_KPA + low) / np.maximum(low, 1e-300),
+                      np.inf)
+    i = int(np.argmin(widest))
+    less = cavity_rest_ml + m.air_column_ml
+    return {"bound_ml": float(widest[i]) - less, "exact_ml": float(exact.min()) - less,
+            "pressure_kpa": float(p[rows][i]), "stroke_ml": float(v[rows][i]), "cavity_rest_ml": cavity_rest_ml,
+            "pressure_accuracy_kpa": m.pressure_accuracy_kpa, "volume_accuracy_ml": m.volume_accuracy_ml}
 
 
 def dead_volume_check(value_ml: float, spread_ml: float, bound: dict[str, float]) -> tuple[bool, str]:
     """Whether a named dead volume fits under the recording's own bound, and the words saying so."""
     fits = value_ml - spread_ml <= bound["bound_ml"]
-    how = (f"the recording's own rows allow at most {bound['bound_ml']:.3g} mL of air (Boyle's law at "
+    within = ""
+    if bound["pressure_accuracy_kpa"] or bound["volume_accuracy_ml"]:
+        within = (f" within the rig's stated accuracy (+-{bound['pressure_accuracy_kpa']:.3g} kPa, "
+                  f"+-{bound['volume_accuracy_ml']:.3g} mL; {bound['exact_ml']:.3g} mL as recorded)")
+    how = (f"the recording's own rows allow at most {bound['bound_ml']:.3g} mL of air{within} (Boyle's law at "
            f"{bound['pressure_kpa']:.3g} kPa: all of the piston's {bound['stroke_ml']:.3g} mL into air, less the "
            f"cavity's own {bound['cavity_rest_ml']:.3g} mL)")
     if fits:
