@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pnmold.physics.reading import P_ATM_KPA
+
 #: the experiment that separates an effect from the ones it is confused with (DIAGNOSE.md)
 SEPARATING_EXPERIMENT = {
     "gravity": "repeat the ramp with the actuator flipped (chambers down) or submerged in water",
@@ -59,8 +61,6 @@ def air_column_bound(recording, cavity_rest_ml: float) -> dict[str, float] | Non
     rows = np.flatnonzero((p > 0) & (p >= AIR_BOUND_SHARE * p.max()))
     if rows.size == 0:
         return None
-    from pnmold.physics.reading import P_ATM_KPA
-
     exact = v[rows] * (P_ATM_KPA + p[rows]) / p[rows]
     low = p[rows] - m.pressure_accuracy_kpa
     widest = np.where(low > 0, (v[rows] + m.volume_accuracy_ml) * (P_ATM_KPA + low) / np.maximum(low, 1e-300),
