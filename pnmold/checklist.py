@@ -110,6 +110,7 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
     px, py = design.paper_size_mm
     paper = design.paper.present
     embedded = paper and design.paper.depth_mm > 0
+    sheet = _sheet_steps(design) if paper else ()
     prints = []
     for name, use in USES.items():
         est = slicer.get(name) or {}
@@ -135,9 +136,9 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
             "Demold: lift the interior mold out, then peel the top layer off the exterior mold's plates.")),
         Section(f"Cast the bottom layer (strain-limiting, {'with the paper' if paper else layer.name})", (
             *((f"Cut the paper to {px:.1f} x {py:.1f} mm ({design.paper.thickness_mm:g} mm sheet).",) if paper else ()),
-            *(_sheet_steps(design) if paper and not embedded else ()),
+            *(() if embedded else sheet),  # on the mold floor before the mix, embedded after it
             *_pour_steps(bottom, layer, layer_library),
-            *(_sheet_steps(design) if embedded else ()),
+            *(sheet if embedded else ()),
             f"Pour {'over the paper ' if paper else ''}to the top of the pocket "
             f"({design.bottom_layer.thickness_mm:g} mm deep).",
             "Before it cures, set the cured top layer into it, chambers down, pressing gently so no air stays "

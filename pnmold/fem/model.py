@@ -208,7 +208,7 @@ class Model:
         if (flip & outer).any():
             log.warning("facet set %r: %d of %d triangles re-oriented outward", name,
                         int((flip & outer).sum()), len(f))
-            f[flip] = f[flip][:, [0, 2, 1]]
+        f[flip] = f[flip][:, [0, 2, 1]]
         edges = [n + self._edge_ids(f[:, i], f[:, j]) for i, j in _TRI_EDGES]
         return np.ascontiguousarray(np.column_stack([f, *edges]))
 
