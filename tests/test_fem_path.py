@@ -302,8 +302,8 @@ def test_energy_line_search_lowers_the_energy_from_a_far_start(beam, monkeypatch
     accepted = []
     original = newton_module.Newton._step
 
-    def recorded(self, u, p, ev, volume, load, guarded=False):
-        point = original(self, u, p, ev, volume, load, guarded)
+    def recorded(self, u, p, ev, volume, load, guarded=False, reused=False):
+        point = original(self, u, p, ev, volume, load, guarded, reused)
         if point is not None and not guarded:
             rn = np.linalg.norm(ev.residual[model.free])
             accepted.append((ev.energy, point.ev.energy, rn,
@@ -325,6 +325,56 @@ def test_mixed_tangent_changes_the_iterations_not_the_solution(beam):
         sol = solve_bending(beam, pressures_kpa=[10.0, 30.0], options=options)
         curves[mixed] = [(s.tip_x_mm, s.tip_z_mm, s.cavity_volume_ml) for s in sol.steps]
     np.testing.assert_allclose(curves[True], curves[False], rtol=1e-5, atol=1e-5)
+
+
+def test_reused_factorisation_changes_the_factorisations_not_the_solution(beam):
+    """Later Newton iterations solved by GMRES with the increment's first factorisation
+    (module notes 5. of ``newton``): the same curve as factoring every tangent, fewer
+    factorisations, and GMRES did the rest."""
+    curves, stats = {}, {}
+    for krylov in (0, 30):
+        options = SolveOptions(newton=NewtonOptions(krylov_iterations=krylov))
+        sol = solve_bending(beam, pressures_kpa=[10.0, 30.0], options=options)
+        curves[krylov] = [(s.tip_x_mm, s.tip_z_mm, s.cavity_volume_ml) for s in sol.steps]
+        stats[krylov] = sol.stats
+    np.testing.assert_allclose(curves[30], curves[0], rtol=1e-5, atol=1e-5)
+    assert stats[0]["krylov_solves"] == 0
+    assert stats[30]["krylov_solves"] > 0
+    assert stats[30]["factorizations"] < stats[0]["factorizations"]
+
+
+def _bordered_direct(newton, ev, volume):
+    """The volume-controlled Newton step with the tangent at ``ev`` factored."""
+    m = newton.model
+    newton._factor(ev.matrix)
+    b = -newton.linear.solve(ev.residual[m.free])
+    g = ev.volume_gradient[m.free]
+    a = newton.linear.solve(g)
+    dp = -(ev.cavity_volume_mm3 - volume + float(g @ b)) / float(g @ a)
+    return b + dp * a, dp
+
+
+def test_gmres_with_the_last_factorisation_solves_the_bordered_step(beam):
+    """The volume-controlled step at a bent state, solved by GMRES preconditioned by the
+    factorisation at rest, is the step of the factored tangent there; with too few GMRES
+    iterations the tangent is factored after all (counted) and the step is the same."""
+    model = Model(beam, Yeoh(), Membrane(), {"clamp": (0, 1, 2), "symmetry": (1,)})
+    direct = Newton(model)
+    bent = direct.solve(np.zeros(model.ndof), Load(0.003))
+    assert bent.converged
+    load = Load(0.0035)
+    ev = direct.evaluate(bent.u, load, want_k=True)
+    volume = ev.cavity_volume_mm3 + 5.0
+    d_ref, dp_ref = _bordered_direct(direct, ev, volume)
+    for iterations, fallbacks in ((40, 0), (1, 1)):
+        newton = Newton(model, NewtonOptions(krylov_iterations=iterations, krylov_rtol=1e-10))
+        newton.factor(np.zeros(model.ndof), load)  # the preconditioner: the tangent at rest
+        newton.assemble(bent.u, load)
+        d, dp, _ = newton._direction(ev, volume)
+        assert newton.stats.krylov_fallbacks == fallbacks
+        assert newton.stats.factorizations == 1 + fallbacks
+        np.testing.assert_allclose(d, d_ref, rtol=0, atol=1e-6 * np.abs(d_ref).max())
+        assert dp == pytest.approx(dp_ref, rel=1e-6)
 
 
 # -- failures ------------------------------------------------------------------------------

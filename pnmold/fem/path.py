@@ -13,7 +13,7 @@ controlled solve from an interpolated predictor.
 
 Step control: the first increment comes from the tangent at the start (``first_angle_deg``
 of predicted bend, at most ``first_move`` of the body's size), later ones grow or shrink
-with the factorisations an increment took (``target_iterations``) and are limited by
+with the tangents an increment used (``target_iterations``) and are limited by
 ``max_angle_deg`` of bend. Predictors extrapolate the last converged states (Lagrange,
 ``predictor_order``): points move on arcs as the actuator curls, and a higher-order
 prediction leaves Newton a smaller spurious stretch to remove. A failed increment is
@@ -119,10 +119,10 @@ def _first_step(newton: Newton, rate_u: np.ndarray, angle: Callable[[np.ndarray]
     return dt
 
 
-def _next_step(newton: Newton, dt: float, n_fact: int, dangle: float, dp: float,
+def _next_step(newton: Newton, dt: float, tangents: int, dangle: float, dp: float,
                control: Control) -> float:
     opt = newton.options
-    grow = min(max(opt.target_iterations / max(n_fact, 1), 0.5), opt.growth)
+    grow = min(max(opt.target_iterations / max(tangents, 1), 0.5), opt.growth)
     out = dt * grow
     if dangle > 1e-9:
         out = min(out, dt * control.max_angle_deg / dangle)
@@ -209,7 +209,7 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
         bend = angle(state.u)
         log.info("%s %.4g %s: bend %.1f deg, %d factorisations", what, t, unit, bend,
                  res.factorizations)
-        dt = _next_step(newton, step, res.factorizations, abs(bend - last_angle), 0.0, control)
+        dt = _next_step(newton, step, res.tangents, abs(bend - last_angle), 0.0, control)
         last_angle = bend
         if targets is None or any(abs(t - s) <= eps for s in stops):
             stop, _ = on_step(state)
@@ -383,7 +383,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
                 return new, "stopped"
         history = (history + [new])[-(opt.predictor_order + 2):]
         dp = new.p - state.p
-        dv = _next_step(newton, v_new - state.t, res.factorizations, abs(bend - last_angle),
+        dv = _next_step(newton, v_new - state.t, res.tangents, abs(bend - last_angle),
                         dp, control)
         state, last_angle, cuts = new, bend, 0
 
