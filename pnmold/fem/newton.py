@@ -314,12 +314,14 @@ class Newton:
             return None
         return (z, 0.0, None) if g is None else (z[:-1], z[-1] / scale, mg)
 
-    def _factor_pending(self) -> None:
-        """Factor the assembled tangent after all (GMRES did not converge with the old one)."""
+    def _factor_pending(self, g: np.ndarray | None = None) -> None:
+        """Factor the assembled tangent after all (GMRES did not converge with the old one, or
+        a failed solve needs its inertia); its negative eigenvalues (held at the cavity volume
+        with ``g``) count toward :attr:`most_negatives`."""
         self.stats.krylov_fallbacks += 1
         self._factor(self._pending)
         self._pending = None
-        self.most_negatives = max(self.most_negatives, self.linear.negative_pivots)
+        self.most_negatives = max(self.most_negatives, self.negatives(g))
 
     def _factor(self, matrix) -> None:
         t = time.perf_counter()
@@ -412,9 +414,16 @@ class Newton:
         fact0, reusable = self.stats.factorizations, False
         self.most_negatives = 0
         self._rho = 0.0
+        self._pending = None  # a tangent left by the last solve is not this one's
         self.inverted = ev.inverted if not ev.ok else np.zeros(0, np.int64)
 
+        constraint = None
+
         def result(ok: bool, why: str = "") -> NewtonResult:
+            if not ok and self._pending is not None:
+                # the last tangent was solved by GMRES: factor it for its inertia, which
+                # tells the step control a critical point from a Newton failure
+                self._factor_pending(constraint)
             if ok:
                 # the unshifted tangent's count: a shifted one would hide a lost stability
                 self.inertia = unshifted if n_fact else self.inertia
@@ -527,7 +536,7 @@ class Newton:
             self.stats.linear_solve_s += time.perf_counter() - t
             if out is not None:
                 return out
-            self._factor_pending()
+            self._factor_pending(ev.volume_gradient[m.free])
         r = ev.residual[m.free]
         if volume is None:
             return -self.back_solve(r, exact), 0.0, None
