@@ -243,11 +243,7 @@ class Newton:
     def factor(self, u: np.ndarray, load: Load, mixed: Stresses | None = None) -> Evaluation:
         """Assemble and factor the tangent at ``u`` (its stress terms from ``mixed`` if
         given); returns the evaluation there."""
-        t = time.perf_counter()
-        ev = self.model.evaluate(u, load, True, mixed)
-        self.stats.assembly_s += time.perf_counter() - t
-        self._floor = (_ROUNDOFF * self.span
-                       * float(np.linalg.norm(ev.matrix.data[self.model.diag_pos])))
+        ev = self.assemble(u, load, mixed)
         self._factor(ev.matrix)
         self._pending = None
         if mixed is None:  # a tangent at a converged state sets the inertia to expect
