@@ -507,6 +507,55 @@ def test_pardiso_reuses_its_analysis_for_the_same_pattern():
     solver.release()
 
 
+def test_pardiso_solves_several_right_hand_sides_and_keeps_both_cores_after_gmsh():
+    """MKL is called directly: two right-hand sides in one call give the two single solves.
+    A mesh made as pnmold.mesh makes it (HXT on General.NumThreads = 1) sets the process's
+    OpenMP threads to one, which MKL would follow; the solver sets MKL's own thread count."""
+    import gmsh
+    import scipy.sparse as sp
+
+    from pnmold.fem.linsolve import Pardiso, _threads
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.3)
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.mesh.generate(3)
+        solver = Pardiso()
+        assert solver._solver.libmkl.MKL_Get_Max_Threads() == _threads()
+    finally:
+        gmsh.finalize()
+    n = 40
+    lap = sp.diags([-np.ones(n - 1), 2.5 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    solver.factor(sp.triu(lap, format="csr"))
+    rhs = np.column_stack([np.arange(1.0, n + 1), np.cos(np.arange(n))])
+    both = solver.solve(rhs)
+    assert both.shape == (n, 2) and both.flags.c_contiguous
+    for k in range(2):
+        assert np.allclose(both[:, k], solver.solve(rhs[:, k]))
+        assert np.allclose(lap @ both[:, k], rhs[:, k])
+    solver.release()
+
+
+def test_the_fe_holds_openblas_to_one_thread_while_it_solves_and_restores_it():
+    from threadpoolctl import threadpool_info
+
+    from pnmold.fem.linsolve import one_blas_thread
+
+    def openblas() -> list[int]:
+        return [p["num_threads"] for p in threadpool_info() if p["internal_api"] == "openblas"]
+
+    before = openblas()
+    assert before, "numpy's OpenBLAS is not loaded"
+    inside = one_blas_thread(openblas)()
+    assert inside == [1] * len(before)
+    assert openblas() == before
+
+
 def test_the_scipy_fallback_solves_the_same_curve_as_pardiso(beam, monkeypatch):
     """Where pypardiso is missing (no MKL wheels) the FE factors with SciPy's SuperLU, chosen by
     :func:`linear_solver`; forced here with PNMOLD_LINEAR_SOLVER. On a nonlinear curve with

@@ -453,7 +453,8 @@ def test_inertia_correction_shifts_a_tangent_with_a_surplus_negative_eigenvalue(
     assert newton.linear.negative_pivots == 1
     assert newton._correct_inertia(ev, None, newton.negatives()) == 1
     assert newton.linear.negative_pivots == 0 and newton.stats.shifts == 1
-    assert newton._correct_inertia(ev, None, newton.negatives()) == 0  # the last (shifted) factorisation is already right
+    # the last (shifted) factorisation is already right
+    assert newton._correct_inertia(ev, None, newton.negatives()) == 0
 
 
 def test_the_converged_inertia_is_the_unshifted_tangents(beam, monkeypatch):

@@ -205,7 +205,8 @@ def paper_wedges(qmesh: QuadraticMesh, facets: np.ndarray, thickness_mm: float) 
 def _rows(cells: np.ndarray, first: int, ids: np.ndarray | None = None) -> list[str]:
     """Element lines numbered ``first + e``, or ``first + ids[e]``."""
     ids = np.arange(len(cells)) if ids is None else ids
-    return [f"{first + int(e)}, " + ", ".join(str(int(v) + 1) for v in cell) for e, cell in zip(ids, cells, strict=True)]
+    return [f"{first + int(e)}, " + ", ".join(str(int(v) + 1) for v in cell)
+            for e, cell in zip(ids, cells, strict=True)]
 
 
 def _solid_sets(qmesh: QuadraticMesh, material: Yeoh,

@@ -7,8 +7,8 @@ counters (``n_analyses``, ``n_factorizations``, ``negative_pivots``):
 - :class:`Pardiso` -- Intel MKL's PARDISO through pypardiso, LDL^T. The sparsity pattern never
   changes along a curve, so the symbolic analysis (reordering, phase 11) runs once and each
   Newton iteration does only the numerical factorisation (phase 22) and the solve (phase 33).
-  pypardiso exposes the phases through ``set_phase``; its ``factorize``/``solve`` always re-run
-  the analysis, so we call its ``_call_pardiso`` directly.
+  pypardiso's ``factorize``/``solve`` always re-run the analysis, so we call MKL's ``pardiso``
+  through pypardiso's handle directly, phase by phase, with the 1-based indices kept.
 - :class:`SuperLU` -- SciPy's ``splu`` on the full symmetric matrix, for machines where MKL has
   no wheels (Apple Silicon, ARM Linux): the package installs pypardiso only on x86-64. On the
   fPN's quick FE (35k unknowns) a factorisation takes 3-5x PARDISO's time and the whole FE
@@ -21,9 +21,14 @@ without building it (the build report names it).
 
 from __future__ import annotations
 
+import ctypes
 import functools
+import glob
 import logging
 import os
+import sys
+from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -31,6 +36,7 @@ import scipy.sparse as sp
 from ..errors import SolveError, UsageError
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 #: environment variable that forces a linear solver
 LINEAR_SOLVER_ENV = "PNMOLD_LINEAR_SOLVER"
@@ -38,6 +44,8 @@ LINEAR_SOLVER_ENV = "PNMOLD_LINEAR_SOLVER"
 LINEAR_SOLVERS = ("pardiso", "scipy")
 
 _REAL_SYMMETRIC_INDEFINITE = -2
+_INT_P = ctypes.POINTER(ctypes.c_int32)
+_DOUBLE_P = ctypes.POINTER(ctypes.c_double)
 
 
 def _cores() -> int:
@@ -48,38 +56,84 @@ def _cores() -> int:
 #: PARDISO iparm (1-based): own settings; METIS ordering; no iterative refinement (Newton
 #: corrects the rare inaccurate solve, and refinement costs more than a solve); 1e-8 pivot
 #: perturbation and Bunch-Kaufman 1x1/2x2 pivoting (the symmetric-indefinite defaults);
+#: the two-level factorisation (iparm 24 = 1), whose forward and backward substitutions run on
+#: both cores (fPN build mesh: 16-19 ms a solve instead of 30-36 ms, the factorisation as fast);
 #: conditional numerical reproducibility (iparm 34) for this machine's cores: without it MKL
 #: may factor on fewer threads when the machine is busy, in another order of summation, and
 #: the adaptive load stepping turns that round-off into another curve (a characterisation
 #: rerun gave 35 steps instead of 34). With it, 1 and 2 threads give the same bits.
-_IPARM = {1: 1, 2: 2, 8: 0, 10: 8, 11: 0, 13: 0, 21: 1, 34: _cores()}
+_IPARM = {1: 1, 2: 2, 8: 0, 10: 8, 11: 0, 13: 0, 21: 1, 24: 1, 34: _cores()}
+
+
+def _point_pypardiso_at_mkl() -> None:
+    """Where ``libmkl_rt`` lies in this Python's ``lib`` (MKL's wheel), tell pypardiso so
+    (``PYPARDISO_MKL_RT``): otherwise its import and every new solver search the whole
+    environment for the library (0.7 s each)."""
+    if "PYPARDISO_MKL_RT" not in os.environ:
+        found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.so*")), key=len)
+        if found:
+            os.environ["PYPARDISO_MKL_RT"] = found[0]
+
+
+def _threads() -> int:
+    """The threads MKL may use: ``MKL_NUM_THREADS`` or ``OMP_NUM_THREADS`` when set, else the cores."""
+    for name in ("MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+        value = os.environ.get(name, "").split(",")[0].strip()
+        if value.isdigit() and int(value) > 0:
+            return int(value)
+    return _cores()
+
+
+def _pardiso_solver():
+    """pypardiso's solver object (it loads MKL), with MKL's own thread count set.
+
+    Set, not left to OpenMP: gmsh's HXT mesher on ``General.NumThreads = 1`` (:mod:`pnmold.mesh`)
+    sets the process's OpenMP thread count to 1 (MKL's OpenMP runtime serves gmsh's calls too), and every
+    PARDISO call after a mesh in the same process ran on one core (a build's factorisations
+    1.5x slower, its solves 1.8x)."""
+    _point_pypardiso_at_mkl()
+    from pypardiso import PyPardisoSolver
+
+    solver = PyPardisoSolver(mtype=_REAL_SYMMETRIC_INDEFINITE)
+    solver.libmkl.MKL_Set_Num_Threads(_threads())
+    return solver
 
 
 class Pardiso:
-    """LDL^T of a symmetric matrix given by its upper triangle; analysis done once."""
+    """LDL^T of a symmetric matrix given by its upper triangle; analysis done once.
+
+    MKL is called directly with the pattern's 1-based indices kept from the analysis (pypardiso's
+    own call converts them again at every solve)."""
 
     name = "pardiso"
 
     def __init__(self) -> None:
-        from pypardiso import PyPardisoSolver
-
-        self._solver = PyPardisoSolver(mtype=_REAL_SYMMETRIC_INDEFINITE)
+        self._solver = _pardiso_solver()
         for i, value in _IPARM.items():
             self._solver.set_iparm(i, value)
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
-        self._matrix: sp.csr_matrix | None = None
+        self._ia = self._ja = self._data = None
         self.n_analyses = 0
         self.n_factorizations = 0
         self.negative_pivots = 0
 
     def _phase(self, phase: int, b: np.ndarray) -> np.ndarray:
-        from pypardiso.pardiso_wrapper import PyPardisoError
+        s = self._solver
+        x = np.empty_like(b)
+        error = ctypes.c_int32(0)
 
-        self._solver.set_phase(phase)
-        try:
-            return self._solver._call_pardiso(self._matrix, b)
-        except PyPardisoError as err:
-            raise SolveError(f"PARDISO phase {phase} failed: {err}") from err
+        def ref(value: int):
+            return ctypes.byref(ctypes.c_int32(value))
+
+        s._mkl_pardiso(s.pt.ctypes.data_as(ctypes.POINTER(s._pt_type[0])), ref(1), ref(1), ref(s.mtype),
+                       ref(phase), ref(b.shape[0]), self._data.ctypes.data_as(_DOUBLE_P),
+                       self._ia.ctypes.data_as(_INT_P), self._ja.ctypes.data_as(_INT_P),
+                       s.perm.ctypes.data_as(_INT_P), ref(1 if b.ndim == 1 else b.shape[1]),
+                       s.iparm.ctypes.data_as(_INT_P), ref(0), b.ctypes.data_as(_DOUBLE_P),
+                       x.ctypes.data_as(_DOUBLE_P), ctypes.byref(error))
+        if error.value != 0:
+            raise SolveError(f"PARDISO phase {phase} failed: error {error.value}")
+        return x
 
     def factor(self, matrix: sp.csr_matrix) -> None:
         """Numerically factor ``matrix`` (upper-triangular CSR, sorted indices)."""
@@ -87,12 +141,14 @@ class Pardiso:
         # for the same pattern, and a needless analysis costs more than the factorisation
         same = (self._pattern is not None and np.array_equal(self._pattern[0], matrix.indptr)
                 and np.array_equal(self._pattern[1], matrix.indices))
-        self._matrix = matrix
+        self._data = np.ascontiguousarray(matrix.data, dtype=float)
         self._solver.set_iparm(12, 0)  # CSR, not transposed
-        dummy = np.zeros((matrix.shape[0], 1))
+        dummy = np.zeros((matrix.shape[0], 1), order="F")
         if not same:
-            self._phase(11, dummy)
             self._pattern = (matrix.indptr.copy(), matrix.indices.copy())
+            self._ia = (matrix.indptr + 1).astype(np.int32)
+            self._ja = (matrix.indices + 1).astype(np.int32)
+            self._phase(11, dummy)
             self.n_analyses += 1
         self._phase(22, dummy)
         self.n_factorizations += 1
@@ -100,14 +156,13 @@ class Pardiso:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve with the last factorisation."""
-        b = np.asfortranarray(rhs, dtype=float)
-        return self._phase(33, b)
+        return np.ascontiguousarray(self._phase(33, np.asfortranarray(rhs, dtype=float)))
 
     def release(self) -> None:
         """Free PARDISO's memory."""
-        if self._matrix is not None:
+        if self._data is not None:
             self._solver.free_memory(everything=True)
-            self._matrix = None
+            self._data = None
             self._pattern = None
 
 
@@ -158,9 +213,29 @@ class SuperLU:
         self._lu = None
 
 
+def one_blas_thread(solve: Callable[..., T]) -> Callable[..., T]:
+    """Run ``solve`` with numpy's and SciPy's OpenBLAS on one thread (threadpoolctl), restored after.
+
+    A curve's vector products (norms, dots of 35k unknowns) are too short to share, but each one
+    woke OpenBLAS's second thread, which then spun waiting for more and took a core from the
+    factorisations, the back-substitutions and the compiled assembly running on both: on the fPN's
+    build curve the back-substitutions took 33-48 ms instead of 16 ms, the whole curve 80 s instead
+    of 45 s."""
+
+    @functools.wraps(solve)
+    def wrapper(*args, **kwargs):
+        from threadpoolctl import ThreadpoolController
+
+        with ThreadpoolController().select(internal_api="openblas").limit(limits=1):
+            return solve(*args, **kwargs)
+
+    return wrapper
+
+
 @functools.cache
 def _pardiso_importable() -> str | None:
     """None when pypardiso (and MKL behind it) loads, else why not."""
+    _point_pypardiso_at_mkl()
     try:
         import pypardiso  # noqa: F401
     except (ImportError, OSError) as err:  # no wheel for this machine, or MKL's library fails to load

@@ -56,8 +56,9 @@ leaves Newton a tangent whose sheet terms swamp the rubber's: the sPN's curve st
 (issue 17). What it costs, measured on the fPN (chambers up, build mesh): full bend 47.95 kPa
 with the 6.5 GPa sheet, 47.60 kPa solved in series (-0.7%); on the 4 mm hollow test beam at
 40 kPa the tip moves 1.3% of its travel between contrast 1000 and 4000 and 0.4% between 4000
-and 16000 (``test_fem_path.py::test_sheet_contrast_barely_moves_the_bend``). A compliance added to the layer (the ``layer_compliance`` effect) still acts
-in series, so the FE sees every change of it. The wrinkling force is the physical sheet's.
+and 16000 (``test_fem_path.py::test_sheet_contrast_barely_moves_the_bend``). A compliance added
+to the layer (the ``layer_compliance`` effect) still acts in series, so the FE sees every
+change of it. The wrinkling force is the physical sheet's.
 """
 
 from __future__ import annotations

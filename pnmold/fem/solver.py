@@ -24,6 +24,7 @@ from ..conventions import FULL_BEND_DEG
 from ..errors import DesignError, SolveError
 from ..tetmesh import CLAMP, SYMMETRY, TetMesh
 from . import failure
+from .linsolve import one_blas_thread
 from .material import Membrane, Yeoh
 from .model import Load, Model
 from .newton import Newton, NewtonOptions
@@ -155,6 +156,7 @@ class _Setup:
         return stats
 
 
+@one_blas_thread
 def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float,
            targets: list[float] | None, gravity: Sequence[float] | None,
            plane_gap_mm: float | None, options: SolveOptions,
@@ -361,6 +363,7 @@ class BlockedSlope:
         return self.force0_n + self.slope_n_per_kpa * float(pressure_kpa)
 
 
+@one_blas_thread
 def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
                         membrane: Membrane | None = PAPER, *, gap_mm: float = 0.0,
                         gravity: Sequence[float] | None = None,
