@@ -291,6 +291,55 @@ def test_a_failure_is_critical_only_when_stability_was_lost_on_a_short_try(first
 
     newton = SimpleNamespace(first_negatives=first, most_negatives=most, inertia=converged)
     assert _critical(newton, cuts, base) is expected
+    # a try within the resolution of the last state is short enough, whatever the halvings
+    assert _critical(newton, 0, base, near=True) is (converged >= 0 and (most > converged or converged > base))
+
+
+def test_a_ramp_into_a_limit_point_stops_once_it_is_located_instead_of_creeping():
+    """Load control toward a limit point at t = 0.7 (a body buckling under its weight): tries
+    past it fail with a less stable tangent, tries short of it converge, so every converged
+    increment restarts the halvings and the ramp would close in geometrically down to rounding.
+    It ends, critical, once a failed try lies within ``CRITICAL_RESOLUTION`` of the range."""
+    from types import SimpleNamespace
+
+    from pnmold.fem.newton import NewtonOptions
+    from pnmold.fem.path import CRITICAL_RESOLUTION, Control, PathFailure, State, ramp
+
+    critical_t, n = 0.7, 3
+    tries = []
+
+    class Fake:
+        options = NewtonOptions()
+        model = SimpleNamespace(ndof=n, free=np.arange(n))
+        span = 10.0
+        inertia = most_negatives = 0
+        stats = SimpleNamespace(cuts=0, increments=0)
+
+        def evaluate(self, u, t):
+            return SimpleNamespace(residual=-t * np.ones(n))
+
+        def factor(self, u, t):
+            pass
+
+        def back_solve(self, rhs):
+            return rhs
+
+        def solve(self, u, t, stresses=None, work=0.0, strict=True):
+            tries.append(t)
+            ok = t < critical_t
+            self.most_negatives = 0 if ok else 1
+            return SimpleNamespace(converged=ok, u=t * np.ones(n), pressure_mpa=0.0,
+                                   evaluation=None, stresses=None, tangents=3, why="too long",
+                                   residuals=[1.0], factorizations=1)
+
+    start = State(0.0, np.zeros(n), 0.0, None)
+    with pytest.raises(PathFailure) as failure:
+        ramp(Fake(), start, lambda t: t, 1.0, lambda u: 0.0, lambda s: (False, 0.0), Control(), what="gravity")
+    fail = failure.value
+    assert fail.critical
+    assert critical_t - CRITICAL_RESOLUTION <= fail.last.t < critical_t
+    assert fail.target - fail.last.t <= CRITICAL_RESOLUTION
+    assert len(tries) < 80  # located, not crept up on until the increment vanished
 
 
 # -- globalisation -------------------------------------------------------------------------
