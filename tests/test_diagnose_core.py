@@ -80,6 +80,8 @@ def test_structure_no_term_explains_is_called_unexplained():
     rec.columns["tip_z_mm"] = rec.columns["tip_z_mm"] + 3.0 * np.sin(P / 3.0)  # a wobble nothing models
     diag = run(rec)
     assert diag.doc["unexplained"] is True
+    # the summary points at what lies outside the catalogue, the design's own geometry first
+    assert "not the actuator as built" in diag.doc["summary"] and "design.toml" in diag.doc["summary"]
 
 
 def test_noise_is_estimated_from_the_data():

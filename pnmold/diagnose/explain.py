@@ -120,8 +120,9 @@ def nothing_missing(rmse: float, unit: str, excess: float) -> str:
 def unexplained(rmse: float, unit: str, excess: float, tried: list[str]) -> str:
     return (f"Structure remains that no catalogued effect explains: the held-out error is {rmse:.3g} "
             f"{unit}, {excess:.1f} standard deviations beyond the noise after trying "
-            f"{', '.join(tried)}. Look for a cause outside the catalogue (a leak, a torn wall, "
-            f"a mislabelled column).")
+            f"{', '.join(tried)}. Look for a cause outside the catalogue: a design that is not the "
+            f"actuator as built (a wall, layer or side it leaves out, sizes read off a drawing: compare "
+            f"the part with design.toml), a leak, a torn wall, a mislabelled column.")
 
 
 def rmse(values: np.ndarray) -> float:
