@@ -17,7 +17,15 @@ observable it affects most, the signature's RMS over the recording is ``snr`` (d
 relative to their range.
 
     .venv/bin/python benchmarks/diagnose_blind.py [--per-effect 10] [--null 20] [--seed 1]
-        [--out out/blind] [--source auto|rom] [--jobs 2]
+        [--out out/blind] [--source auto|rom] [--jobs 2] [--designs templates|random]
+        [--random-designs 6]
+
+``--designs random``: instead of the five templates, designs a lab might bring: drawn at random
+over the design rules' valid region as ``benchmarks/fe_robust.py`` draws them (both kinds, 3-15
+chambers, every size the rules bound), each in one of the three library rubbers in turn
+(Elastosil M4601, Ecoflex 00-30, Dragon Skin 30), written as design files in ``OUT/designs``
+and characterised in the FE first (``--jobs`` at a time; cached as a user's design is). Nothing
+of pnmold was tuned on them. The summary adds the scores per rubber.
 
 An interrupted run resumes: recordings already in ``OUT/cases`` are kept. The FE's noise-free
 columns of each case are kept with the key (``OUT/key/<case>-fe-columns.json``): remove
@@ -91,7 +99,54 @@ class Case:
     seed: int
 
 
-def draw_cases(per_effect: int, n_null: int, seed: int, source: str) -> list[Case]:
+def random_designs(n: int, seed: int, folder: Path) -> list[str]:
+    """``n`` valid random designs (``benchmarks/fe_robust.py``'s draw), the library rubbers in turn,
+    written as design files in ``folder``; their paths."""
+    from benchmarks.fe_robust import draw_designs, material_sets
+    from pnmold.design.load import to_toml
+    from pnmold.fsutil import write_text
+    from pnmold.materials.library import list_materials
+
+    rubbers = [m.name for m in list_materials()]
+    paths = []
+    for index, sets in draw_designs(n, seed):
+        rubber = rubbers[index % len(rubbers)]
+        design = load_design("fpn", [*sets, *material_sets(rubber)])
+        path = folder / f"{design.name}-{rubber.split()[0].lower()}.toml"
+        write_text(path, to_toml(design))
+        paths.append(str(path))
+    return paths
+
+
+def _characterise(path: str) -> str:
+    from pnmold.physics.characterise import characterise
+
+    char = characterise(load_design(path))
+    return f"{Path(path).stem}: {char.reason or 'full bend'} ({char.max_pressure_kpa:.4g} kPa)"
+
+
+def characterise_all(paths: list[str], jobs: int) -> None:
+    """Characterise every design once (single-threaded workers); each lands in the cache."""
+    saved = {k: os.environ.get(k) for k in THREAD_ENV}
+    os.environ.update(THREAD_ENV)
+    try:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for line in pool.map(_characterise, paths):
+                print(f"characterised {line}", flush=True)
+    finally:
+        _restore(saved)
+
+
+def _restore(saved: dict[str, str | None]) -> None:
+    for k, v in saved.items():
+        if v is None:
+            os.environ.pop(k, None)
+        else:
+            os.environ[k] = v
+
+
+def draw_cases(per_effect: int, n_null: int, seed: int, source: str,
+               designs: tuple[str, ...] = DESIGNS) -> list[Case]:
     from pnmold.physics.characterise import characterise
 
     rng = np.random.default_rng(seed)
@@ -99,13 +154,16 @@ def draw_cases(per_effect: int, n_null: int, seed: int, source: str) -> list[Cas
     rng.shuffle(plan)
     cases = []
     for i, effect in enumerate(plan):
-        name = str(rng.choice(DESIGNS))
+        name = str(rng.choice(designs))
         design = load_design(name)
         char = characterise(design)
         full = char.full_bend_pressure_kpa or NO_FULL_BEND_SHARE * char.max_pressure_kpa
         if effect == "self_contact" and math.isinf(_contact_pressure(design)):
-            name, design = "fpn", load_design("fpn")  # sPN-like designs have no gap: no contact
-            full = characterise(design).full_bend_pressure_kpa
+            # sPN-like designs have no gap: no contact; the first design that has one, else the fPN
+            name = next((d for d in designs if math.isfinite(_contact_pressure(load_design(d)))), "fpn")
+            design = load_design(name)
+            char = characterise(design)
+            full = char.full_bend_pressure_kpa or NO_FULL_BEND_SHARE * char.max_pressure_kpa
         lo, hi = MAGNITUDES.get(effect, (0.0, 0.0))
         orient = (str(rng.choice(["chambers_up", "chambers_down"])) if effect == "gravity"
                   else str(rng.choice(["chambers_up", "chambers_down", "horizontal"])))
@@ -307,12 +365,32 @@ def score(cases: list, results: dict[str, dict], effects=MAGNITUDES) -> dict:
         "per_effect": {e: f"{sum(first[c.id] == e for c in concealed if c.effect == e)}/"
                           f"{sum(c.effect == e for c in concealed)}" for e in effects},
         "failed_runs": sum(results[c.id]["error"] != "" for c in cases),
+        "per_material": _per_material(cases, first),
     }
 
 
-def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: int) -> dict:
+def _per_material(cases: list, first: dict) -> dict[str, str]:
+    """Rubber -> "named first x/y, null claims a/b" over that rubber's cases."""
+    rubber = {d: load_design(d).material.name for d in {c.design for c in cases}}
+    out = {}
+    for name in sorted(set(rubber.values())):
+        mine = [c for c in cases if rubber[c.design] == name]
+        hidden = [c for c in mine if c.effect]
+        nulls = [c for c in mine if not c.effect]
+        out[name] = (f"named first {sum(first[c.id] == c.effect for c in hidden)}/{len(hidden)}, "
+                     f"null claims {sum(first[c.id] is not None for c in nulls)}/{len(nulls)}")
+    return out
+
+
+def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: int,
+        n_random: int = 0) -> dict:
+    """``n_random`` > 0: that many random designs (:func:`random_designs`) instead of the templates."""
     data, key_dir = out / "cases", out / "key"
-    cases = draw_cases(per_effect, n_null, seed, source)
+    designs = DESIGNS
+    if n_random:
+        designs = tuple(random_designs(n_random, seed, out / "designs"))
+        characterise_all(list(designs), jobs)
+    cases = draw_cases(per_effect, n_null, seed, source, designs)
     # generate in single-threaded worker processes (the FE cases dominate: one per core)
     saved = {k: os.environ.get(k) for k in THREAD_ENV}
     os.environ.update(THREAD_ENV)
@@ -320,11 +398,7 @@ def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: i
         with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
             cases = list(pool.map(_make, cases, [data] * len(cases), [key_dir] * len(cases)))
     finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+        _restore(saved)
 
     def one(c: Case):
         doc, seconds, err = diagnose_case(data / c.id, c.design)
@@ -351,9 +425,12 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "blind")
     parser.add_argument("--source", choices=("auto", "rom"), default="auto")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--designs", choices=("templates", "random"), default="templates")
+    parser.add_argument("--random-designs", type=int, default=6)
     args = parser.parse_args()
     t0 = time.perf_counter()
-    s = score_text(run(args.per_effect, args.null, args.seed, args.out, args.source, args.jobs))
+    n_random = args.random_designs if args.designs == "random" else 0
+    s = score_text(run(args.per_effect, args.null, args.seed, args.out, args.source, args.jobs, n_random))
     print(s)
     print(f"total {time.perf_counter() - t0:.0f} s")
 
@@ -369,6 +446,7 @@ def score_text(s: dict) -> str:
         f"median parameter error:     {100 * s['median_parameter_error']:.0f}%   (target <= 20%)",
         f"seconds per diagnosis:      median {s['median_seconds']:.1f}, max {s['max_seconds']:.1f}   (target <= 30)",
         "per effect (named first / cases): " + ", ".join(f"{k} {v}" for k, v in s["per_effect"].items()),
+        "per rubber: " + "; ".join(f"{k}: {v}" for k, v in s.get("per_material", {}).items()),
     ])
 
 

@@ -124,3 +124,24 @@ def test_a_final_modulus_away_from_the_material_checks_is_said(settled, said):
     assert notes[0] == check.message
     assert any(f"settled at {settled:.3g} x the design's" in n for n in notes) is said
 
+
+
+def test_the_blind_benchmarks_random_designs_are_valid_files_in_every_library_rubber(tmp_path):
+    """``diagnose_blind.py --designs random``: each drawn design is written as a design file that
+    loads back to the same design (same digest), the library's rubbers in turn, so a diagnosis
+    of it runs as a lab's own design file would."""
+    from benchmarks.diagnose_blind import random_designs
+    from benchmarks.fe_robust import draw_designs, material_sets
+    from pnmold.design import digest, load_design
+    from pnmold.materials.library import list_materials
+
+    paths = random_designs(4, 7, tmp_path)
+    rubbers = [m.name for m in list_materials()]
+    drawn = draw_designs(4, 7)
+    assert len(paths) == 4
+    for i, (path, (_, sets)) in enumerate(zip(paths, drawn, strict=True)):
+        again = load_design(path)
+        rubber = rubbers[i % len(rubbers)]
+        assert again.material.name == rubber
+        assert digest(again) == digest(load_design("fpn", [*sets, *material_sets(rubber)]))
+    assert {load_design(p).material.name for p in paths} == set(rubbers)
