@@ -11,7 +11,7 @@ import pytest
 from pnmold.cli import main
 from pnmold.design import load_design
 from pnmold.pipeline import build
-from pnmold.quickfe import BUILD_MESH, run_fe
+from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, run_fe
 from pnmold.recording import read_recording
 from pnmold.tetmesh import MeshSize
 
@@ -205,3 +205,21 @@ def test_a_rubber_strain_limiting_layer_is_a_second_material_in_the_fe(exported)
             assert run.mesh.regions[BOTTOM_LAYER].size > 0
     assert 10.0 < bends["layered"][-1] < 0.7 * bends["plain"][-1]
     assert bends["layered"][0] < bends["layered"][-1]
+
+
+@pytest.mark.slow
+def test_a_soft_design_hanging_chambers_down_ends_at_its_pressure_maximum_not_failed(exported):
+    """A lab's small Ecoflex 00-30 fPN (fe_robust seed 2, design 21), build mesh, hanging chambers
+    down: its curve ends at the pressure maximum (4.86 kPa). With the convergence test's correction
+    solved loosely, a state off the path passed as converged there and the solve failed."""
+    from pnmold.materials.library import as_design_overrides, get_material
+
+    sets = ["design.kind=fpn", "chambers.count=5", "chambers.length_mm=6.23", "chambers.width_mm=9.41",
+            "chambers.height_mm=5.81", "chambers.inside_wall_mm=0.88", "chambers.outer_wall_mm=2.17",
+            "chambers.gap_mm=1.88", "top_layer.floor_mm=2.11", "bottom_layer.thickness_mm=2.82",
+            "channel.height_mm=1.19", *as_design_overrides(get_material("Ecoflex 00-30"))]
+    design, step = exported("fpn", *sets)
+    sol = run_fe(design, step_path=step, size=BUILD_MESH, options=BUILD_OPTIONS, orientation="chambers_down",
+                 keep_partial=True).solution
+    assert sol.stop == "pressure_maximum", sol.reason
+    assert sol.pressure_maximum.pressure_kpa == pytest.approx(4.86, rel=0.01)
