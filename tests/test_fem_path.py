@@ -8,6 +8,7 @@ Small structured meshes (scikit-fem boxes, no gmsh), as in ``test_fem.py``.
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -212,6 +213,46 @@ def test_volume_control_continues_past_the_maximum_at_a_falling_pressure():
     after = [p for v, p in steps if v > maxima[0].t]
     assert after and max(after) < maxima[0].p and after[-1] < after[0]
 
+
+def test_short_failed_tries_early_in_an_inflation_are_not_a_critical_point():
+    """Early in an inflation (travel much smaller than the cavity) short tries can fail with a
+    less stable predicted tangent on a smooth path (CalculiX's pointwise penalty on the coarse
+    fPN: the predictor's volumetric error): the resolution that declares a critical point is a
+    share of the volume travelled, not of the cavity, so the path goes on."""
+    from pnmold.fem.path import CRITICAL_RESOLUTION
+
+    mat = Yeoh(c10_mpa=0.11, c20_mpa=0.0)
+    model = Model(bulge_mesh(), mat, None, {"bottom": (0, 1, 2), "sym_x": (0,), "sym_y": (1,)})
+    newton = Newton(model)
+    u = np.zeros(model.ndof)
+    start = State(0.0, u, 0.0, newton.evaluate(u, Load()))
+    v0 = start.ev.cavity_volume_mm3
+    window = (v0 + 2.0, v0 + 2.02)  # mm^3 of travel, a tenth of the cavity
+    longest = 0.5 * CRITICAL_RESOLUTION * v0  # longer tries into it fail: within 1e-4 of the cavity
+    real, last, artefacts = newton.solve, [v0], []
+
+    def solve(u0, load, *args, volume=None, **kw):
+        if volume is not None and last[0] < window[1] and volume > window[0] and volume - last[0] > longest:
+            artefacts.append(volume)
+            newton.most_negatives = newton.inertia + 1
+            return SimpleNamespace(converged=False, why="emulated: predicted tangent less stable",
+                                   residuals=[1.0], factorizations=0)
+        res = real(u0, load, *args, volume=volume, **kw)
+        if res.converged and volume is not None:
+            last[0] = volume
+        return res
+
+    newton.solve = solve
+    steps = []
+
+    def report(state):
+        steps.append(state.t)
+        return state.t > v0 + 3.0, 0.0
+
+    end, why = inflate(newton, start, lambda p: Load(p), lambda _: 0.0, report, Control(first_move=0.02),
+                       p_limit=1.0)
+    assert artefacts, "the emulated failures were met"
+    assert why == "stopped" and end.t > window[1]
 
 def test_solve_bending_names_a_pressure_maximum_as_a_physical_stop(beam):
     """Without its sheet the neo-Hookean test beam balloons instead of curling: the curve
