@@ -58,3 +58,29 @@ def rom(fpn):
     from pnmold.physics import ReducedModel, characterisation_from_steps
 
     return ReducedModel(fpn, characterisation_from_steps(STEPS, fpn))
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    """template -> (design, characterisation, actuator.step), FE on the coarse mesh at
+    ``tests.rom_fe.FE_PRESSURE_KPA``, computed once per test module that asks (its files go to the
+    session's FE cache)."""
+    from pnmold.cad import export_parts, make_parts
+    from pnmold.physics import characterise
+    from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA
+    from tests.rom_fe import COARSE, FE_PRESSURE_KPA, WITH_VARIANTS
+
+    got = {}
+
+    def get(name):
+        if name not in got:
+            design = load_design(name)
+            assert FE_PRESSURE_KPA[name] != DEFAULT_MAX_PRESSURE_KPA  # another key than the bundled: the FE runs
+            c = characterise(design, size=COARSE, max_pressure_kpa=FE_PRESSURE_KPA[name],
+                             variants=name in WITH_VARIANTS)
+            folder = tmp_path_factory.mktemp(f"cad-{name}")
+            export_parts({"actuator": make_parts(design)["actuator"]}, folder)
+            got[name] = (design, c, folder / "actuator.step")
+        return got[name]
+
+    return get

@@ -1,7 +1,8 @@
 """The reduced model (pnmold.physics): protocol, characterisation and its cache, the rod's
-equilibrium against closed forms, and -- slow -- the reduced model against the FE of the same
-design with gravity (within 5 % of the length at every FE step), the stored test data against
-the live FE, and the FE's response to a stretching layer and to stiffer rubber at values the
+equilibrium against closed forms, and -- slow -- the reduced model against the fPN's FE with
+gravity (within 5 % of the length at every FE step; the other templates in
+tests/test_rom_spn.py and tests/test_rom_families.py), the stored test data against the live
+FE, and the FE's response to a stretching layer and to stiffer rubber at values the
 characterisation's variant runs did not use.
 
 ``tests/data/fpn-free-coarse-steps.json``: the fpn's quick FE without gravity on the coarse
@@ -24,11 +25,14 @@ from pnmold.errors import DesignError, SolveError
 from pnmold.physics import Characterisation, Protocol, ReducedModel, characterisation_from_steps, characterise
 from pnmold.physics.rod import RodLoads, solve_rod, structured_solve
 from pnmold.recording import read_recording, write_recording
-from pnmold.tetmesh import MeshSize
 from tests.conftest import STEPS, TEMPLATES
-
-COARSE = MeshSize(3.5, 7.0)
-
+from tests.rom_fe import (
+    COARSE,
+    FE_MIN_BEND_DEG,
+    FE_PRESSURE_KPA,
+    rom_carries_the_fe_response,
+    rom_follows_the_fe_with_gravity,
+)
 
 # -- protocol --------------------------------------------------------------------------------------
 
@@ -196,39 +200,6 @@ def test_force_and_volume(rom):
 
 # -- against the FE (slow) -----------------------------------------------------------------------
 
-#: moderate pressures (each FE run stays around a minute on the coarse mesh) and the bend the FE
-#: reaches there with 1 g chambers up: the fPN curls past 90 degrees and droops 10 % of its length
-#: at rest; the sPN (shared walls, far stiffer) bends about 15 degrees and hardly droops; the
-#: Fig. S2 designs bend 58, 100 and 104 degrees there without gravity
-FE_PRESSURE_KPA = {"fpn": 12.0, "spn": 25.0, "fig-s2a-h5": 12.0, "fig-s2b-n7": 30.0, "fig-s2c-w2": 45.0}
-FE_MIN_BEND_DEG = {"fpn": 90.0, "spn": 10.0, "fig-s2a-h5": 40.0, "fig-s2b-n7": 70.0, "fig-s2c-w2": 70.0}
-#: the templates whose characterisation here also runs the variants (the response tests use them)
-WITH_VARIANTS = ("fpn", "spn")
-
-
-@pytest.fixture(scope="module")
-def live(tmp_path_factory):
-    """template -> (design, characterisation, actuator.step), FE on the coarse mesh, cached per module
-    (in the session's FE cache of tests/conftest.py)."""
-    from pnmold.cad import export_parts, make_parts
-    from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA
-
-    got = {}
-
-    def get(name):
-        if name not in got:
-            design = load_design(name)
-            assert FE_PRESSURE_KPA[name] != DEFAULT_MAX_PRESSURE_KPA  # another key than the bundled: the FE runs
-            c = characterise(design, size=COARSE, max_pressure_kpa=FE_PRESSURE_KPA[name],
-                             variants=name in WITH_VARIANTS)
-            folder = tmp_path_factory.mktemp(f"cad-{name}")
-            export_parts({"actuator": make_parts(design)["actuator"]}, folder)
-            got[name] = (design, c, folder / "actuator.step")
-        return got[name]
-
-    return get
-
-
 @pytest.mark.slow
 def test_stored_steps_match_the_live_fe(live):
     design, c, _ = live("fpn")
@@ -295,60 +266,25 @@ def test_the_bundled_characterisation_matches_the_live_fe(live):
 
 
 def test_every_template_is_checked_against_the_fe():
+    from tests import test_rom_families
+
     assert sorted(FE_PRESSURE_KPA) == sorted(FE_MIN_BEND_DEG) == TEMPLATES
+    assert sorted(["fpn", "spn", *test_rom_families.FAMILIES]) == TEMPLATES
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", sorted(FE_PRESSURE_KPA))
-def test_rom_follows_the_fe_with_gravity_within_5_percent(live, name):
-    """Every template: the FE with 1 g chambers up against the reduced model informed by the
-    gravity-off curve and the 0.35 g compliance probe: the tip within 5 % of the length at every
-    FE step (``benchmarks/rom.py`` runs the same to full bend)."""
-    from pnmold.quickfe import run_fe
-
-    design, c, step = live(name)
-    fe = run_fe(design, step_path=step, size=COARSE, orientation="chambers_up",
-                max_pressure_kpa=FE_PRESSURE_KPA[name]).solution
-    p = np.array([s.pressure_kpa for s in fe.steps])
-    out = ReducedModel.for_design(design, c).run(Protocol("bending", p, "chambers_up"))
-    miss = np.hypot(out["tip_x_mm"] - [s.tip_x_mm for s in fe.steps], out["tip_z_mm"] - [s.tip_z_mm for s in fe.steps])
-    if name == "fpn":
-        assert fe.steps[0].tip_z_mm < -0.1 * design.length_mm  # gravity matters here
-    assert fe.steps[-1].bend_angle_deg > FE_MIN_BEND_DEG[name]
-    assert miss.max() < 0.05 * design.length_mm, f"{name}: worst {miss.max():.2f} mm at {p[np.argmax(miss)]:.3g} kPa"
+def test_rom_follows_the_fe_with_gravity_within_5_percent(live):
+    """The fPN (the other templates: tests/test_rom_spn.py, tests/test_rom_families.py)."""
+    rom_follows_the_fe_with_gravity(live, "fpn")
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name, effect, value, shows", [("fpn", "layer_compliance", 0.3, (5.0, 0.01)),
-                                                        ("fpn", "strain_stiffening", 0.1, (1.0, 0.05)),
-                                                        ("spn", "layer_compliance", 0.1, (0.5, 0.05))])
-def test_the_reduced_model_carries_the_fe_response_at_other_values(live, name, effect, value, shows):
-    """The FE's free bend with the effect at a value no variant run used (twice the largest layer
-    compliance, or between the two; C20 + 0.1 MPa, the bound), at the characterisation's pressures,
-    against the reduced model reading the variants: the change over the nominal, in bend, cavity
-    volume and tip position, within 20 % of the FE's largest change at every step; and the effect
-    shows (``shows``: degrees, ml). The sPN's layer bends it less and lengthens it."""
-    from pnmold.quickfe import run_fe
+@pytest.mark.parametrize("effect, value, shows", [("layer_compliance", 0.3, (5.0, 0.01)),
+                                                  ("strain_stiffening", 0.1, (1.0, 0.05))])
+def test_the_reduced_model_carries_the_fe_response_at_other_values(live, effect, value, shows):
+    """The fPN (the sPN: tests/test_rom_spn.py)."""
+    rom_carries_the_fe_response(live, "fpn", effect, value, shows)
 
-    design, c, step = live(name)
-    fe = run_fe(design, step_path=step, size=COARSE, orientation="none", effects={effect: value},
-                pressures_kpa=c.pressure_kpa[1:].tolist()).solution
-    p = np.array([s.pressure_kpa for s in fe.steps])
-    assert p[-1] == pytest.approx(c.pressure_kpa[-1])
-    rom = ReducedModel(design, c)
-    proto = Protocol("bending", p, "none")
-    base, with_effect = rom.run(proto, {"gravity": 0.0}), rom.run(proto, {"gravity": 0.0, effect: value})
-    fe_steps = {key: np.array([getattr(s, key) for s in fe.steps]) for key in base if hasattr(fe.steps[0], key)}
-    for key, least in zip(("bend_angle_deg", "cavity_volume_ml"), shows, strict=True):
-        fe_change = fe_steps[key] - getattr(c, key)
-        rom_change = with_effect[key] - base[key]
-        assert np.abs(fe_change).max() > least, key
-        assert np.abs(rom_change - fe_change).max() < 0.2 * np.abs(fe_change).max(), key
-    fe_tip = np.stack([fe_steps["tip_x_mm"] - c.tip_x_mm, fe_steps["tip_z_mm"] - c.tip_z_mm])
-    rom_tip = np.stack([with_effect["tip_x_mm"] - base["tip_x_mm"], with_effect["tip_z_mm"] - base["tip_z_mm"]])
-    assert np.hypot(*(rom_tip - fe_tip)).max() < 0.2 * np.hypot(*fe_tip).max()
-    if name == "spn":
-        assert fe_steps["bend_angle_deg"][-1] < c.bend_angle_deg[-1] and fe_tip[0, -1] > 0
 
 
 @pytest.mark.parametrize("orientation", ["chambers_up", "chambers_down", "submerged"])

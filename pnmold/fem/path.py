@@ -141,10 +141,10 @@ CRITICAL_AFTER_CUTS = 4
 #: volume travelled under volume control) is short enough too: a critical point located to
 #: 1e-4 g is located. (Not a share of the cavity: early in an inflation short tries can fail
 #: with a less stable predicted tangent on a smooth path -- CalculiX's pointwise penalty on the
-#: coarse fPN stopped at 4.0 of its 6 kPa.) Closing in further only crawls: converged increments reset the halvings, so the
-#: path crept toward the point geometrically (an Ecoflex 00-30 sPN hanging chambers up spent
-#: 300 of its 365 s and 630 of its 698 factorisations going from 0.6988 g to within 1e-16 g of
-#: its buckling load)
+#: coarse fPN stopped at 4.0 of its 6 kPa.) Closing in further only crawls: converged
+#: increments reset the halvings, so the path crept toward the point geometrically (an Ecoflex
+#: 00-30 sPN hanging chambers up spent 300 of its 365 s and 630 of its 698 factorisations going
+#: from 0.6988 g to within 1e-16 g of its buckling load)
 CRITICAL_RESOLUTION = 1e-4
 
 

@@ -1,0 +1,16 @@
+"""The reduced model against the FE of the Fig. S2 templates with gravity (slow; see
+tests/rom_fe.py)."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.rom_fe import rom_follows_the_fe_with_gravity
+
+FAMILIES = ("fig-s2a-h5", "fig-s2b-n7", "fig-s2c-w2")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", FAMILIES)
+def test_rom_follows_the_fe_with_gravity_within_5_percent(live, name):
+    rom_follows_the_fe_with_gravity(live, name)
