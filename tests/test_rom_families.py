@@ -13,4 +13,5 @@ FAMILIES = ("fig-s2a-h5", "fig-s2b-n7", "fig-s2c-w2")
 @pytest.mark.slow
 @pytest.mark.parametrize("name", FAMILIES)
 def test_rom_follows_the_fe_with_gravity_within_5_percent(live, name):
-    rom_follows_the_fe_with_gravity(live, name)
+    failed = rom_follows_the_fe_with_gravity(live, name)
+    assert not failed, failed
