@@ -13,13 +13,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from pnmold import render
 from pnmold import report as rep
 from pnmold.checklist import checklist_sections, render_markdown
 from pnmold.checks import CheckReport, check_parts
 from pnmold.design import Design, to_toml
 from pnmold.errors import MeshingError, SolveError, UsageError
 from pnmold.fsutil import staged_dir, write_json, write_text
-from pnmold.report_html import write_report
+from pnmold.report_html import picture_jobs, write_report
 from pnmold.version import __version__
 
 if TYPE_CHECKING:
@@ -134,10 +135,11 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
         timings[stage] = round(time.perf_counter() - t0, 3)
         return value
 
-    with staged_dir(final) as tmp:
+    with staged_dir(final) as tmp, render.Renderer() as renderer:
         shapes = timed("cad", make_parts, design)
         timed("export", export_parts, shapes, tmp)
         del shapes
+        renderer.draw(picture_jobs(tmp))  # the part pictures are drawn while the checks and the FE run
         write_text(tmp / "design.toml", to_toml(design))
         parts = timed("measure", rep.measure_parts, tmp, design.part_names)
         report: dict[str, Any] = {
@@ -164,7 +166,7 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
                 say(f"quick FE failed: {report['fem']['reason']}")
         write_json(tmp / "report.json", report)
         write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
-        timed("report", write_report, tmp, report)
+        timed("report", write_report, tmp, report, renderer)
         write_json(tmp / "report.json", report)  # again, with the report stage's time
     return BuildResult(design, final, report)
 

@@ -3,7 +3,7 @@ and the GLB models of the interactive view.
 
 Parts are drawn with PyVista (VTK) off screen through EGL, which Mesa's software renderer
 (``libegl-mesa0``, installed by ``scripts/install-system-deps.sh``) provides without a
-display or a GPU. :func:`pictures` draws them in a child process (``python -m
+display or a GPU. :class:`Renderer` draws them in a child process (``python -m
 pnmold.render``), because VTK ends its process when it finds no OpenGL at all: a build then
 loses its pictures, with the reason, not its life. Curves are matplotlib (Agg). Everything
 returns PNG or GLB bytes.
@@ -18,6 +18,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -182,36 +183,102 @@ DRAW = {"part": part_picture, "strain": strain_picture}
 RENDER_TIMEOUT_S = 600
 
 
-def pictures(jobs: dict[str, tuple[str, ...]]) -> dict[str, bytes | str]:
-    """Draw ``jobs`` (key -> ``("part", stl_path, name)`` or ``("strain", npz_path)``) in a
-    child process: key -> PNG bytes, or the reason there is no picture."""
-    with tempfile.TemporaryDirectory(prefix="pnmold-render-") as tmp:
-        spec = json.dumps({key: [str(v) for v in job] for key, job in jobs.items()})
+class Renderer:
+    """A child process (``python -m pnmold.render``) that draws jobs as they are sent, one JSON
+    line of ``key -> ("part", stl_path, name) | ("strain", npz_path)`` at a time.
+
+    A build starts it as soon as its parts are exported, so the part pictures are drawn while
+    the design is checked and bent, and sends the strain picture once the FE has written its
+    field; :meth:`results` then waits for everything sent (at most ``RENDER_TIMEOUT_S`` from
+    the start). Use it as a context manager: leaving the block stops the child."""
+
+    def __init__(self) -> None:
+        self._tmp = tempfile.TemporaryDirectory(prefix="pnmold-render-")
+        self._folder = Path(self._tmp.name)
+        self._t0 = time.monotonic()
+        self.sent: list[str] = []
+        self._stderr = (self._folder / "stderr.txt").open("w+")
         home = str(Path(__file__).resolve().parents[1])  # this pnmold, installed or not
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [home, os.environ.get("PYTHONPATH")]))}
+        self._start_error = None
         try:
-            proc = subprocess.run([sys.executable, "-m", "pnmold.render", tmp], input=spec, capture_output=True,
-                                  text=True, timeout=RENDER_TIMEOUT_S, env=env)
-            lines = [ln for ln in re.sub(r"\x1b\[[0-9;]*m", "", proc.stderr).splitlines() if ln.strip()]
-            stopped = f"the renderer stopped (exit code {proc.returncode}){': ' + lines[-1] if lines else ''}"
-        except subprocess.TimeoutExpired:
-            stopped = f"the renderer took longer than {RENDER_TIMEOUT_S} s"
+            self._proc: subprocess.Popen | None = subprocess.Popen(
+                [sys.executable, "-m", "pnmold.render", str(self._folder)], stdin=subprocess.PIPE,
+                stdout=subprocess.DEVNULL, stderr=self._stderr, text=True, env=env)
+        except OSError as err:
+            self._proc, self._start_error = None, f"the renderer could not start: {err}"
+
+    def draw(self, jobs: dict[str, tuple]) -> None:
+        """Send ``jobs`` to the child (a child that has stopped is reported by :meth:`results`)."""
+        self.sent += [key for key in jobs if key not in self.sent]
+        if self._proc is None or not jobs:
+            return
+        try:
+            self._proc.stdin.write(json.dumps({key: [str(v) for v in job] for key, job in jobs.items()}) + "\n")
+            self._proc.stdin.flush()
+        except OSError:  # the child died: its exit code and last words say why, in results()
+            pass
+
+    def results(self) -> dict[str, bytes | str]:
+        """Wait for the child: key -> PNG bytes, or the reason there is no picture."""
+        stopped = self._start_error or ""
+        if self._proc is not None:
+            try:
+                self._proc.stdin.close()
+            except OSError:
+                pass
+            try:
+                self._proc.wait(timeout=max(1.0, RENDER_TIMEOUT_S - (time.monotonic() - self._t0)))
+                self._stderr.seek(0)
+                lines = [ln for ln in re.sub(r"\x1b\[[0-9;]*m", "", self._stderr.read()).splitlines() if ln.strip()]
+                code = self._proc.returncode
+                stopped = f"the renderer stopped (exit code {code}){': ' + lines[-1] if lines else ''}"
+            except subprocess.TimeoutExpired:
+                self._proc.kill()
+                self._proc.wait()
+                stopped = f"the renderer took longer than {RENDER_TIMEOUT_S} s"
         out: dict[str, bytes | str] = {}
-        for key in jobs:
-            png, err = Path(tmp) / f"{key}.png", Path(tmp) / f"{key}.err"
+        for key in self.sent:
+            png, err = self._folder / f"{key}.png", self._folder / f"{key}.err"
             out[key] = png.read_bytes() if png.is_file() else err.read_text() if err.is_file() else stopped
-    return out
+        return out
+
+    def close(self) -> None:
+        """Stop the child if it still runs and remove its folder."""
+        if self._proc is not None and self._proc.poll() is None:
+            self._proc.kill()
+            self._proc.wait()
+        self._stderr.close()
+        self._tmp.cleanup()
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def pictures(jobs: dict[str, tuple[str, ...]]) -> dict[str, bytes | str]:
+    """Draw ``jobs`` (key -> ``("part", stl_path, name)`` or ``("strain", npz_path)``) in a
+    child process (:class:`Renderer`): key -> PNG bytes, or the reason there is no picture."""
+    with Renderer() as renderer:
+        renderer.draw(jobs)
+        return renderer.results()
 
 
 def _serve(folder: str) -> None:
-    """The child of :func:`pictures`: jobs as JSON on stdin, ``<key>.png`` or ``<key>.err`` into ``folder``."""
-    for key, (kind, *args) in json.load(sys.stdin).items():
-        try:
-            data = DRAW[kind](*args)
-        except (OSError, ValueError, KeyError, RuntimeError) as err:
-            Path(folder, f"{key}.err").write_text(f"{type(err).__name__}: {err}")
+    """The child of :class:`Renderer`: jobs as JSON lines on stdin, ``<key>.png`` or
+    ``<key>.err`` into ``folder``, until stdin closes."""
+    for line in sys.stdin:
+        if not line.strip():
             continue
-        write_bytes(Path(folder, f"{key}.png"), data)
+        for key, (kind, *args) in json.loads(line).items():
+            try:
+                data = DRAW[kind](*args)
+            except (OSError, ValueError, KeyError, RuntimeError) as err:
+                Path(folder, f"{key}.err").write_text(f"{type(err).__name__}: {err}")
+                continue
+            write_bytes(Path(folder, f"{key}.png"), data)
 
 
 if __name__ == "__main__":

@@ -259,8 +259,23 @@ def _checklist(folder: Path, report: dict[str, Any]) -> str:
     return link + f"<iframe class='checklist' title='checklist' srcdoc='{esc(doc)}' onload=\"{fit}\"></iframe>"
 
 
-def report_page(folder: str | Path, report: dict[str, Any] | None = None) -> str:
-    """The HTML of ``folder``'s report page (``report`` defaults to its report.json)."""
+def picture_jobs(folder: str | Path) -> dict[str, tuple]:
+    """The report's pictures of ``folder`` as :mod:`pnmold.render` jobs: each part whose STL is
+    there, and the strain on the bent actuator once ``fem_field.npz`` is."""
+    folder = Path(folder)
+    jobs: dict[str, tuple] = {name: ("part", folder / f"{name}.stl", name)
+                              for name in render.PARTS if (folder / f"{name}.stl").is_file()}
+    if (folder / "fem_field.npz").is_file():
+        jobs["strain"] = ("strain", folder / "fem_field.npz")
+    return jobs
+
+
+def report_page(folder: str | Path, report: dict[str, Any] | None = None,
+                renderer: render.Renderer | None = None) -> str:
+    """The HTML of ``folder``'s report page (``report`` defaults to its report.json).
+
+    ``renderer``: a :class:`~pnmold.render.Renderer` already drawing some of the pictures
+    (a build starts one early); the rest are sent to it. Default: a new one."""
     folder = Path(folder)
     if report is None:
         path = folder / "report.json"
@@ -280,10 +295,12 @@ def report_page(folder: str | Path, report: dict[str, Any] | None = None) -> str
                 f"{esc(report.get('pnmold_version', '?'))}; files beside this page: <a href='report.json'>"
                 "report.json</a>, <a href='design.toml'>design.toml</a>, <a href='checklist.md'>checklist.md"
                 f"</a>; stage times (s): {esc(_fmt(report.get('timings_s', {})))}</p>")
-    jobs = {name: ("part", folder / f"{name}.stl", name) for name in render.PARTS if (folder / f"{name}.stl").is_file()}
-    if (folder / "fem_field.npz").is_file():
-        jobs["strain"] = ("strain", folder / "fem_field.npz")
-    pictures = render.pictures(jobs)
+    jobs = picture_jobs(folder)
+    if renderer is None:
+        pictures = render.pictures(jobs)
+    else:
+        renderer.draw({key: job for key, job in jobs.items() if key not in renderer.sent})
+        pictures = renderer.results()
     sections = [
         ("parts", "Parts", _parts(folder, report, pictures)),
         ("view3d", "3D view", _drawn("the 3D view", lambda: _viewer(folder, _part_names(report)))),
@@ -298,6 +315,8 @@ def report_page(folder: str | Path, report: dict[str, Any] | None = None) -> str
                 head=model_viewer_head())
 
 
-def write_report(folder: str | Path, report: dict[str, Any] | None = None) -> Path:
-    """Write ``folder/report.html`` (atomically) from the build folder's files."""
-    return write_text(Path(folder) / "report.html", report_page(folder, report))
+def write_report(folder: str | Path, report: dict[str, Any] | None = None,
+                 renderer: render.Renderer | None = None) -> Path:
+    """Write ``folder/report.html`` (atomically) from the build folder's files (``renderer``:
+    see :func:`report_page`)."""
+    return write_text(Path(folder) / "report.html", report_page(folder, report, renderer))

@@ -580,3 +580,19 @@ def test_the_scipy_fallback_solves_the_same_curve_as_pardiso(beam, monkeypatch):
     monkeypatch.setenv("PNMOLD_LINEAR_SOLVER", "umfpack")
     with pytest.raises(UsageError, match="PNMOLD_LINEAR_SOLVER=umfpack: one of pardiso, scipy"):
         choose_linear_solver()
+
+
+def test_largest_stretch_in_closed_form_equals_the_eigenvalue_solvers():
+    from pnmold.fem.results import largest_stretch_squared
+
+    rng = np.random.default_rng(7)
+    general = np.eye(3) + 0.6 * rng.standard_normal((2000, 3, 3))
+    q, _ = np.linalg.qr(rng.standard_normal((4, 3, 3)))  # rotations and reflections: C = I
+    stretch = np.diag([1.0, 1.0 + 1e-9, 1.0])  # nearly repeated, the largest apart or not
+    pairs = np.stack([np.diag([2.0, 2.0, 0.5]), np.diag([0.5, 2.0, 2.0]), stretch])
+    F = np.concatenate([general, q, pairs, q @ pairs[0]])
+    expected = np.linalg.eigvalsh(np.swapaxes(F, -1, -2) @ F)[..., -1]
+    got = largest_stretch_squared(F)
+    np.testing.assert_allclose(got[:2000], expected[:2000], rtol=1e-12)
+    np.testing.assert_allclose(got, expected, rtol=1e-7)  # a repeated largest: arccos near 1
+    assert largest_stretch_squared(F.reshape(-1, 1, 3, 3)).shape == (F.shape[0], 1)

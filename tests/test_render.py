@@ -128,3 +128,22 @@ def test_the_glb_decimates_a_dense_part(tmp_path):
     data = render.glb(tmp_path, ["paper"], max_faces=2000)
     faces = sum(len(g.faces) for g in trimesh.load(io.BytesIO(data), file_type="glb").dump())
     assert 1000 < faces <= 2100
+
+
+def test_jobs_sent_at_two_times_come_back_together_and_the_child_ends(block, tmp_path):
+    strip_field(tmp_path / "f.npz")
+    with render.Renderer() as renderer:
+        renderer.draw({"a": ("part", block, "paper")})  # a build: the parts first, the strain after the FE
+        renderer.draw({"s": ("strain", tmp_path / "f.npz")})
+        out = renderer.results()
+        child = renderer._proc
+    assert renderer.sent == ["a", "s"]
+    assert set(out) == {"a", "s"} and all(isinstance(v, bytes) for v in out.values()), out
+    assert child.poll() is not None
+
+
+def test_a_renderer_left_without_results_is_stopped(block):
+    with render.Renderer() as renderer:
+        renderer.draw({"a": ("part", block, "paper")})
+        child = renderer._proc
+    assert child.poll() is not None

@@ -20,6 +20,7 @@ from functools import cached_property
 import numpy as np
 
 from pnmold.errors import MeshingError
+from pnmold.fem.results import largest_stretch_squared
 from pnmold.tetmesh import TetMesh
 
 #: the corner pairs of the six midside nodes, in the VTK / Abaqus C3D10 order
@@ -155,10 +156,8 @@ def nodal_stretch(qmesh: QuadraticMesh, state: np.ndarray) -> np.ndarray:
     if u.shape[0] != qmesh.n_nodes:
         raise MeshingError(f"a state of {u.shape[0]} nodes does not fit a P2 mesh of {qmesh.n_nodes}")
     ue = u[qmesh.cells]  # (m, 10 funcs, 3)
-    F = np.einsum("eai,ekaj->ekij", ue, qmesh.gradients) + np.eye(3)  # (m, 10 points, 3, 3)
-    lam = np.sqrt(np.linalg.eigvalsh(np.einsum("ekji,ekjl->ekil", F, F))[..., -1])
-    total = np.zeros(qmesh.n_nodes)
-    count = np.zeros(qmesh.n_nodes)
-    np.add.at(total, qmesh.cells.ravel(), lam.ravel())
-    np.add.at(count, qmesh.cells.ravel(), 1.0)
-    return total / np.maximum(count, 1.0)
+    F = np.matmul(ue.transpose(0, 2, 1)[:, None], qmesh.gradients) + np.eye(3)  # (m, 10 points, 3, 3)
+    lam = np.sqrt(largest_stretch_squared(F))
+    cells = qmesh.cells.ravel()
+    total = np.bincount(cells, lam.ravel(), qmesh.n_nodes)
+    return total / np.maximum(np.bincount(cells, minlength=qmesh.n_nodes), 1)

@@ -12,6 +12,7 @@ rigid frictionless plane ``z = tip_z - gap`` under the tip, enforced by a penalt
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -364,6 +365,15 @@ class BlockedSlope:
 
 
 @one_blas_thread
+def _without_krylov(options: SolveOptions) -> SolveOptions:
+    """``options`` factoring every tangent: against the plane, a later Newton iterate's tangent
+    differs from the increment's first by the contact penalty of the nodes that touched down
+    since, which the first tangent's factorisation does not precondition (GMRES ran its 30
+    products and was factored after all). Measured on the fPN's build mesh with gravity:
+    the rest state on the plane in 10.2 s with GMRES, 6.0 s without, the slope the same to 2e-7."""
+    return dataclasses.replace(options, newton=dataclasses.replace(options.newton, krylov_iterations=0))
+
+
 def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
                         membrane: Membrane | None = PAPER, *, gap_mm: float = 0.0,
                         gravity: Sequence[float] | None = None,
@@ -376,7 +386,7 @@ def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
     (contact penalty included for nodes on the plane); the reaction's change is the
     penalty on those nodes' z-motion. Raises :class:`SolveError` if gravity fails.
     """
-    options = options or SolveOptions()
+    options = _without_krylov(options or SolveOptions())
     if gap_mm < 0:
         raise DesignError("gap_mm", f"must be >= 0, got {gap_mm}")
     t_start = time.perf_counter()
