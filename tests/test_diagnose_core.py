@@ -144,3 +144,36 @@ def test_without_repeated_cycles_the_floor_follows_the_models_slope_in_pressure(
     (r,) = build_dataset([repeated], [{"bend_angle_deg": np.tile(bend, 3)}], 0.01).series
     assert r.model_form == 0.0 and np.all(r.sigma == r.measurement)
 
+
+
+def _reaching(top_kpa: float):
+    """The toy's forward model with an FE characterisation that stopped at ``top_kpa`` (design's
+    rubber): rows past it, in the recording's pressure, are marked as the reduced model marks them."""
+    def forward(effects, calib):
+        out = toy(effects, calib)
+        out["beyond_fe"] = P / calib.get("modulus_scale", 1.0) > top_kpa * 1.01
+        return [out]
+    return forward
+
+
+REACH = {"full_bend_pressure_kpa": None, "reason": "pressure maximum of the toy"}
+
+
+def test_rows_beyond_the_fe_are_said_at_the_recordings_pressure():
+    rec = recording({}, scale=1.15, noise_mm=0.2, seed=2)
+    diag = diagnose({"name": "toy", "digest": "0"}, [rec], _reaching(32.0), EFFECTS, seed=1,
+                    reach={**REACH, "max_pressure_kpa": 32.0}, model_form_share=0.0, pressure_form_share=0.0)
+    scale = diag.doc["calibration"]["final"]["modulus_scale"]
+    [note] = [n for n in diag.doc["calibration"]["notes"] if "beyond the pressure the FE characterised" in n]
+    expected = int(np.sum(P / scale > 32.0 * 1.01))
+    assert note.startswith(f"{expected} of {P.size} rows") and 0 < expected <= 0.2 * P.size
+    assert f"{32.0 * scale:.4g} kPa of the recordings (32 kPa with the design's rubber" in note
+
+
+def test_most_rows_beyond_a_stopped_fe_are_refused_naming_the_recordings_pressure():
+    from pnmold.errors import SolveError
+
+    rec = recording({}, scale=1.15, noise_mm=0.2, seed=2)
+    with pytest.raises(SolveError, match=r"rows need the model beyond 2[89]\.\d+ kPa of the recordings \(25 kPa"):
+        diagnose({"name": "toy", "digest": "0"}, [rec], _reaching(25.0), EFFECTS, seed=1,
+                 reach={**REACH, "max_pressure_kpa": 25.0}, model_form_share=0.0, pressure_form_share=0.0)

@@ -94,7 +94,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         left_out = {i: left_out.get(i, np.zeros(len(recordings[i]), bool)) | m for i, m in out_of_reach.items()}
     base, final = decision.baseline, decision.final
     notes = [*calibration_notes(final, calibration, check), *explain.left_out(recordings, left_out),
-             *_extrapolation(final.fit.predictions, data, reach)]
+             *_extrapolation(final.fit.predictions, data, reach, final.fit.values.get("modulus_scale", 1.0))]
     mismatch = locate(data, by_series(data, _full_z(fitter, base)))
     observable = mismatch[0]["observable"] if mismatch else data.series[0].observable
     unit = UNITS.get(observable, "")
@@ -198,10 +198,11 @@ def _out_of_reach(predictions: list[dict[str, np.ndarray]], data: DataSet) -> di
     return out
 
 
-def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach: dict[str, Any] | None
-                   ) -> list[str]:
+def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach: dict[str, Any] | None,
+                   scale: float = 1.0) -> list[str]:
     """Where the final model reads its FE law beyond the pressures the FE solved: said, and refused
-    (SolveError) when that is most of the data and the FE stopped short of full bend."""
+    (SolveError) when that is most of the data and the FE stopped short of full bend. ``scale``:
+    the calibrated modulus scale, by which the FE's pressures carry over to the recordings'."""
     kept = {s.recording: s.rows for s in data.series}
     beyond = sum(int(np.sum(np.asarray(predictions[i]["beyond_fe"])[rows])) for i, rows in kept.items()
                  if "beyond_fe" in predictions[i])
@@ -209,12 +210,15 @@ def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reac
     if not beyond or reach is None:
         return []
     top = reach["max_pressure_kpa"]
+    where = (f"{top:.4g} kPa" if abs(scale - 1.0) < 1e-6 else
+             f"{top * scale:.4g} kPa of the recordings ({top:.4g} kPa with the design's rubber, times the "
+             f"calibrated modulus scale {scale:.3g})")
     short = reach.get("full_bend_pressure_kpa") is None and reach.get("reason")
     if short and beyond > REFUSE_BEYOND_FE * total:
-        raise SolveError(f"{beyond} of {total} rows need the model beyond {top:.4g} kPa, where the FE's "
+        raise SolveError(f"{beyond} of {total} rows need the model beyond {where}, where the FE's "
                          f"characterisation of the design stopped ({reach['reason']}): the answer would rest on "
                          f"extrapolation. Check the design (the FE must reach the recordings' bend) before diagnosing.")
-    return [f"{beyond} of {total} rows lie beyond the pressure the FE characterised ({top:.4g} kPa"
+    return [f"{beyond} of {total} rows lie beyond the pressure the FE characterised ({where}"
             + (f", where its solve stopped: {reach['reason']}" if short else ", past full bend") + "): the model "
             "extrapolates its law there."]
 
