@@ -364,7 +364,6 @@ class BlockedSlope:
         return self.force0_n + self.slope_n_per_kpa * float(pressure_kpa)
 
 
-@one_blas_thread
 def _without_krylov(options: SolveOptions) -> SolveOptions:
     """``options`` factoring every tangent: against the plane, a later Newton iterate's tangent
     differs from the increment's first by the contact penalty of the nodes that touched down
@@ -374,6 +373,7 @@ def _without_krylov(options: SolveOptions) -> SolveOptions:
     return dataclasses.replace(options, newton=dataclasses.replace(options.newton, krylov_iterations=0))
 
 
+@one_blas_thread
 def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
                         membrane: Membrane | None = PAPER, *, gap_mm: float = 0.0,
                         gravity: Sequence[float] | None = None,
