@@ -27,7 +27,7 @@ import numpy as np
 
 from pnmold.conventions import NO_GRAVITY, QUASI_STATIC_KINDS, check_orientation, full_bend_crossing
 from pnmold.design import Design, digest
-from pnmold.errors import UsageError
+from pnmold.errors import SolveError, UsageError
 from pnmold.tetmesh import MeshSize
 
 SCHEMA = "pnmold.simulation/1"
@@ -200,20 +200,41 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
                                        request.rate_kpa_per_s, request.orientation)
-    out = model.run(protocol, effects)
+    out, past = _run_to_maximum(model, protocol, effects)
     keys = [*_STEP_KEYS, *(["force_n"] if request.kind == "force" else [])]
     steps = [{k: round(float(out[k][i]), 6) for k in keys} for i in range(len(protocol))]
     if request.cycles > 1:
         for i, s in enumerate(steps):
             s.update(cycle=int(protocol.cycle[i]), phase=str(protocol.phase[i]))
     steps = _with_time(steps, request.rate_kpa_per_s)
+    steps = [s for s, beyond in zip(steps, past, strict=True) if not beyond]
     fb, reason = _full_bend(steps)
+    if past.any():
+        reason = (f"{characterisation.reason}; {int(past.sum())} of {len(past)} rows lie past it and are left "
+                  f"out (no equilibrium under pressure control)")
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "rom",
             "kind": request.kind, "orientation": request.orientation, "effects": effects, "steps": steps,
             "full_bend_pressure_kpa": fb, "reason": reason,
             "characterisation": {"source": characterisation.source, "mesh": characterisation.mesh,
                                  "max_pressure_kpa": characterisation.max_pressure_kpa,
                                  "probe_gravity_g": characterisation.probe_gravity_g}}
+
+
+def _run_to_maximum(model, protocol, effects) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The reduced model's rows, and which lie past the FE's pressure maximum (no equilibrium there
+    under pressure control: left out of the document, said in its reason). Any other row without an
+    equilibrium is an error, as before."""
+    try:
+        out = model.run(protocol, effects)
+    except SolveError:
+        if not model.characterisation.ends_at_pressure_maximum:
+            raise
+        out = model.run(protocol, effects, partial=True)
+        past = out["pressure_excess"] > 0
+        if not np.all(np.isfinite(out["bend_angle_deg"][~past])):
+            raise
+        return out, past
+    return out, np.zeros(len(protocol), bool)
 
 
 def _full_bend(steps: list[dict[str, Any]]) -> tuple[float | None, str | None]:

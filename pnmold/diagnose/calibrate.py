@@ -40,6 +40,7 @@ class MaterialCheck:
     scale: float
     in_window: bool
     message: str | None
+    chi2: float = float("nan")  # the modulus-only fit's misfit at ``scale`` (every row)
 
     def as_json(self) -> dict:
         return {"modulus_scale": round(self.scale, 6), "window": list(WINDOW), "in_window": self.in_window,
@@ -57,28 +58,42 @@ def calibration_parameters(nominal_scale: float = 1.0, frame: bool = False) -> t
     return (modulus, *(frame_parameters() if frame else ()))
 
 
-def check_material(fitter: Fitter, frame: bool, material: str) -> MaterialCheck:
+def reach_scale(predictions: list[dict[str, np.ndarray]]) -> float:
+    """The least modulus scale at which the model (predicted at scale 1, the effects off) reaches every
+    row: a row past its pressure maximum by the share e needs the rubber 1/(1 - e) times stiffer (the
+    pressures of the free law scale with the modulus). 0 when every row is reached."""
+    excess = [np.asarray(pred["pressure_excess"], float) for pred in predictions if "pressure_excess" in pred]
+    top = max((float(np.max(e, initial=0.0)) for e in excess), default=0.0)
+    return 1.0 / (1.0 - top) * (1.0 + 1e-3) if top > 0 else 0.0
+
+
+def check_material(fitter: Fitter, frame: bool, material: str, reach: float = 0.0) -> MaterialCheck:
     """The best modulus over :data:`WIDE` (the effects off), refined; a message when it is outside the
-    window: which way the model is off, by how much, and what to check."""
+    window: which way the model is off, by how much, and what to check. ``reach``: the least modulus
+    at which the model reaches every row (:func:`reach_scale`): the search starts there (a softer
+    rubber than the recordings' highest pressure allows is not a candidate, whatever the effects)."""
     h = Hypothesis((), calibration_parameters(1.0, frame))
     rest = np.array([p.start for p in h.parameters[1:]])
-    grid = np.geomspace(*WIDE, WIDE_POINTS)
+    floor = min(max(WIDE[0], reach), WIDE[1])
+    grid = np.geomspace(floor, WIDE[1], WIDE_POINTS)
     chi2 = [float(np.sum(fitter.z(h, np.concatenate([[s], rest])) ** 2)) for s in grid]
     best = float(grid[int(np.argmin(chi2))])
     near = Hypothesis((), calibration_parameters(best, frame))
-    wide = Hypothesis((), tuple(Parameter(p.key, p.start, max(p.low, WIDE[0]), min(p.high, WIDE[1]), True)
+    wide = Hypothesis((), tuple(Parameter(p.key, p.start, max(p.low, floor), min(p.high, WIDE[1]), True)
                                 for p in near.parameters))
-    scale = float(fitter.fit(wide, starts=[np.array([p.start for p in wide.parameters])]).x[0])
-    scale = min(max(scale, WIDE[0]), WIDE[1])  # the fit may step a rounding past its bound
+    fit = fitter.fit(wide, starts=[np.array([p.start for p in wide.parameters])])
+    scale = min(max(float(fit.x[0]), floor), WIDE[1])  # the fit may step a rounding past its bound
     if WINDOW[0] <= scale <= WINDOW[1]:
-        return MaterialCheck(scale, True, None)
+        return MaterialCheck(scale, True, None, fit.chi2)
     way = "stiffer" if scale > 1 else "softer"
     factor = scale if scale > 1 else 1 / scale
+    held = (f" (the recordings hold pressures past the model's pressure maximum with the design's rubber: "
+            f"it must be at least {reach:.3g} times stiffer)" if reach > WINDOW[1] else "")
     return MaterialCheck(scale, False, (
         f"The recordings need a rubber {factor:.3g} times {way} than the design's {material} (modulus scale "
-        f"{scale:.3g}, outside the {WINDOW[0]:g}-{WINDOW[1]:g} a batch or cure varies by): check the material "
-        f"first (its name, Shore hardness, mix ratio, cure), then the wall thicknesses. The effects below are "
-        f"judged about this modulus."))
+        f"{scale:.3g}, outside the {WINDOW[0]:g}-{WINDOW[1]:g} a batch or cure varies by){held}: check the "
+        f"material first (its name, Shore hardness, mix ratio, cure), then the wall thicknesses. The effects "
+        f"below are judged about this modulus."), fit.chi2)
 
 
 def _pinned(value: float, p: Parameter) -> str | None:
@@ -92,6 +107,21 @@ def modulus_pinned(decision, calibration: tuple[Parameter, ...]) -> bool:
     even one not accepted, is the likelier story than another rubber: DIAGNOSE.md's trap)."""
     fits = [decision.final, *decision.ranked[:1]]
     return all(_pinned(c.fit.values["modulus_scale"], calibration[0]) is not None for c in fits)
+
+
+def baseline_pinned(decision, calibration: tuple[Parameter, ...]) -> bool:
+    """The recalibrated nominal model alone has its modulus at a bound of the window."""
+    return _pinned(decision.baseline.fit.values["modulus_scale"], calibration[0]) is not None
+
+
+def other_rubber_fits(check: MaterialCheck, decision, margin: float) -> bool:
+    """Another rubber (the material check's modulus, no effect) fits the data within ``margin``
+    (chi-square) of the best candidate that freed the window's modulus: that effect only stood in
+    for a modulus the window did not allow (on one first loading a Mullins factor is a modulus
+    scale), so it is not evidence against another rubber (DIAGNOSE.md: judge a term only by what
+    recalibration could not absorb)."""
+    best = min((c.fit.chi2 for c in decision.ranked[:1]), default=float("inf"))
+    return check.chi2 <= best + margin
 
 
 def calibration_notes(final, calibration: tuple[Parameter, ...], check: MaterialCheck | None) -> list[str]:

@@ -13,9 +13,10 @@ from pnmold.errors import SolveError
 from pnmold.recording import Recording
 
 from . import explain
-from .calibrate import calibration_notes, calibration_parameters, check_material, modulus_pinned
+from .calibrate import (baseline_pinned, calibration_notes, calibration_parameters, check_material, modulus_pinned,
+                        other_rubber_fits, reach_scale)
 from .data import MODEL_FORM_SHARE, PRESSURE_FORM_SHARE, DataSet, build_dataset
-from .decide import Candidate, Decision, decide, excess_sigma
+from .decide import DCHI2_MIN, Candidate, Decision, decide, excess_sigma
 from .fitting import Fitter, Forward, zscores
 from .locate import locate
 
@@ -83,11 +84,16 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         fitter = Fitter(data, forward)
         calibration = calibration_parameters(scale, frame)
         decision = decide(fitter, effects, seed=seed, calibration=calibration)
-        if check is None and modulus_pinned(decision, calibration):  # not a batch of rubber
-            check = check_material(fitter, frame, design_entry.get("material") or "rubber")
-            if not check.in_window:
+        pinned = modulus_pinned(decision, calibration)  # not a batch of rubber, and no effect frees it
+        past = _past_maximum(decision.final.fit.predictions, data)  # the rubber cannot reach the recordings
+        if check is None and (pinned or past or baseline_pinned(decision, calibration)):
+            least = reach_scale(_prediction(forward, recordings, {}))
+            check = check_material(fitter, frame, design_entry.get("material") or "rubber", least)
+            if not check.in_window and (pinned or past or other_rubber_fits(check, decision, DCHI2_MIN)):
                 scale = check.scale
                 continue
+            if not check.in_window:
+                check = None  # an effect explains what another rubber would not: judged in the window
         out_of_reach = _out_of_reach(decision.final.fit.predictions, data)
         if not out_of_reach:
             break
@@ -186,39 +192,66 @@ def _prediction(forward: Forward, recordings: Sequence[Recording], calibration: 
         return [{k: np.zeros(len(r)) for k in r.columns} for r in recordings]
 
 
+def _past_maximum(predictions: list[dict[str, np.ndarray]], data: DataSet) -> bool:
+    """Any kept row past the model's pressure maximum (``pressure_excess``): the modulus the window
+    allows cannot reach the recordings."""
+    return any(np.any(np.asarray(predictions[s.recording].get("pressure_excess", [0.0]), float)[
+        s.rows if "pressure_excess" in predictions[s.recording] else [0]] > 0) for s in data.series)
+
+
 def _out_of_reach(predictions: list[dict[str, np.ndarray]], data: DataSet) -> dict[int, np.ndarray]:
-    """Recording index -> the kept rows where the model has no equilibrium (NaN: past its limit point)."""
+    """Recording index -> the kept rows where the model has no equilibrium (NaN: past its limit point),
+    other than those past its pressure maximum (``pressure_excess``: scored, see :func:`.fitting.zscores`)."""
     out: dict[int, np.ndarray] = {}
     for s in data.series:
         f = np.asarray(predictions[s.recording][s.observable], float)
+        scored = np.asarray(predictions[s.recording].get("pressure_excess", np.zeros(f.size)), float) > 0
         bad = np.zeros(f.size, bool)
-        bad[s.rows] = ~np.isfinite(f[s.rows])
+        bad[s.rows] = ~np.isfinite(f[s.rows]) & ~scored[s.rows]
         if bad.any():
             out[s.recording] = out.get(s.recording, np.zeros(f.size, bool)) | bad
     return out
 
 
+def _rows_where(predictions: list[dict[str, np.ndarray]], data: DataSet, key: str) -> np.ndarray:
+    """Per kept row of every recording (once, whatever its observables), the prediction's flag ``key``."""
+    kept = {s.recording: s.rows for s in data.series}
+    return np.concatenate([np.asarray(predictions[i].get(key, np.zeros(len(data.recordings[i]))), float)[rows] > 0
+                           for i, rows in kept.items()])
+
+
 def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach: dict[str, Any] | None,
                    scale: float = 1.0) -> list[str]:
     """Where the final model reads its FE law beyond the pressures the FE solved: said, and refused
-    (SolveError) when that is most of the data and the FE stopped short of full bend. ``scale``:
-    the calibrated modulus scale, by which the FE's pressures carry over to the recordings'."""
-    kept = {s.recording: s.rows for s in data.series}
-    beyond = sum(int(np.sum(np.asarray(predictions[i]["beyond_fe"])[rows])) for i, rows in kept.items()
-                 if "beyond_fe" in predictions[i])
-    total = sum(rows.size for rows in kept.values())
-    if not beyond or reach is None:
+    (SolveError) when that is most of the data and the FE stopped short of full bend. Rows past the
+    FE's pressure maximum are not read off any law (the model has no equilibrium there): said, with
+    how they were judged. ``scale``: the calibrated modulus scale, by which the FE's pressures carry
+    over to the recordings'."""
+    past = _rows_where(predictions, data, "pressure_excess")
+    beyond = int(np.sum(_rows_where(predictions, data, "beyond_fe") & ~past))
+    total = past.size
+    if reach is None or not (beyond or past.any()):
         return []
     top = reach["max_pressure_kpa"]
     where = (f"{top:.4g} kPa" if abs(scale - 1.0) < 1e-6 else
              f"{top * scale:.4g} kPa of the recordings ({top:.4g} kPa with the design's rubber, times the "
              f"calibrated modulus scale {scale:.3g})")
+    notes = []
+    if past.any():
+        share = data.series[0].pressure_share or PRESSURE_FORM_SHARE
+        notes.append(f"{int(past.sum())} of {total} rows lie past the model's pressure maximum ({where}; "
+                     f"{reach.get('reason') or 'the FE'}): it has no equilibrium there under pressure control, so "
+                     f"each counts by the share of its pressure the model cannot hold ({100 * share:.3g} % of the "
+                     f"pressure is one standard deviation). A volume-driven rig follows the actuator past such a "
+                     f"maximum; the model does not.")
+    if not beyond:
+        return notes
     short = reach.get("full_bend_pressure_kpa") is None and reach.get("reason")
     if short and beyond > REFUSE_BEYOND_FE * total:
         raise SolveError(f"{beyond} of {total} rows need the model beyond {where}, where the FE's "
                          f"characterisation of the design stopped ({reach['reason']}): the answer would rest on "
                          f"extrapolation. Check the design (the FE must reach the recordings' bend) before diagnosing.")
-    return [f"{beyond} of {total} rows lie beyond the pressure the FE characterised ({where}"
+    return [*notes, f"{beyond} of {total} rows lie beyond the pressure the FE characterised ({where}"
             + (f", where its solve stopped: {reach['reason']}" if short else ", past full bend") + "): the model "
             "extrapolates its law there."]
 

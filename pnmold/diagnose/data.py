@@ -45,6 +45,10 @@ QUASI_STATIC = ("bending", "pv", "force")
 #: rows per held-out block (at least); a branch of 30 rows gives 5 blocks
 BLOCK_ROWS = 6
 FOLDS = 5
+#: a short branch (a real rig's 15 increments) is still cut into as many blocks as there are folds
+#: while each keeps this many rows: with 2 blocks every held-out fold would be half the curve, the
+#: test an extrapolation from one half to the other (across a pressure plateau: no model passes it)
+MIN_BLOCK_ROWS = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +64,7 @@ class Series:
     rows: np.ndarray  # (n,) row indices in the recording
     measurement: float = 0.0  # the measurement noise estimated from the data (same units)
     model_form: float = 0.0  # the model's form-error floor, RMS over the rows (same units)
+    pressure_share: float = PRESSURE_FORM_SHARE  # the model's form error in pressure, a share of it
 
     @property
     def name(self) -> str:
@@ -159,23 +164,46 @@ def repeat_sigma(residual: np.ndarray, rec: Recording) -> float | None:
     return float(np.sqrt(sq / dof)) if dof > 0 else None
 
 
+def _slope_at(p: np.ndarray, f: np.ndarray, idx: np.ndarray) -> np.ndarray | None:
+    """|df/dp| along the rows ``idx`` (repeated pressures averaged to one point), at those rows."""
+    grid = np.unique(p[idx])
+    if grid.size < 2:
+        return None
+    mean = np.array([f[idx][p[idx] == g].mean() for g in grid])
+    return np.interp(p[idx], grid, np.abs(np.gradient(mean, grid)))
+
+
 def pressure_form(rec: Recording, prediction: np.ndarray, branch: np.ndarray,
-                  share: float = PRESSURE_FORM_SHARE) -> np.ndarray:
+                  share: float = PRESSURE_FORM_SHARE, measured: np.ndarray | None = None) -> np.ndarray:
     """Per row, ``share`` x p x |dy/dp| of the model's ``prediction`` along each branch (0 where
-    the recording is not quasi-static or the model has no equilibrium)."""
+    the recording is not quasi-static). Where the model has no equilibrium (past its pressure
+    maximum) the ``measured`` curve's own slope stands in: there the model's is unbounded."""
     out = np.zeros(len(rec))
     p = rec.columns.get("pressure_kpa")
     if rec.kind not in QUASI_STATIC or p is None:
         return out
     p, f = np.asarray(p, float), np.asarray(prediction, float)
     for b in np.unique(branch):
-        idx = np.flatnonzero((branch == b) & np.isfinite(f))
-        grid = np.unique(p[idx])
-        if grid.size < 2:
-            continue
-        mean = np.array([f[idx][p[idx] == g].mean() for g in grid])  # repeated pressures: one point
-        slope = np.abs(np.gradient(mean, grid))
-        out[idx] = share * np.abs(p[idx]) * np.interp(p[idx], grid, slope)
+        on = np.flatnonzero(branch == b)
+        ok = np.isfinite(f[on])
+        slope = np.zeros(on.size)
+        model = _slope_at(p, f, on[ok])
+        if model is not None:
+            slope[ok] = model
+        if measured is not None and not ok.all() and (own := _slope_at(p, np.asarray(measured, float), on)) is not None:
+            slope[~ok] = own[~ok]
+        out[on] = share * np.abs(p[on]) * slope
+    return out
+    p, f = np.asarray(p, float), np.asarray(prediction, float)
+    for b in np.unique(branch):
+        on = branch == b
+        for idx, curve in ((np.flatnonzero(on & np.isfinite(f)), f),
+                           (np.flatnonzero(on & ~np.isfinite(f)), measured)):
+            if curve is None or not idx.size:
+                continue
+            slope = _slope_at(p, curve, idx if curve is f else np.flatnonzero(on))
+            if slope is not None:
+                out[idx] = share * np.abs(p[idx]) * (slope if curve is f else slope[np.isin(np.flatnonzero(on), idx)])
     return out
 
 
@@ -206,7 +234,7 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
         nxt = 0
         for b in np.unique(branch):
             idx = np.where(branch == b)[0]
-            nblocks = max(1, idx.size // BLOCK_ROWS)
+            nblocks = max(1, idx.size // BLOCK_ROWS, min(FOLDS, idx.size // MIN_BLOCK_ROWS))
             block[idx] = nxt + np.arange(idx.size) * nblocks // idx.size
             nxt += nblocks
         rows = np.flatnonzero(~(left_out or {}).get(i, np.zeros(len(rec), bool)))
@@ -219,11 +247,11 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             form = np.zeros(len(rec))
             if repeats is None:
                 form = np.hypot(model_form_share * span,
-                                pressure_form(rec, baseline[i][name], branch, pressure_form_share))
+                                pressure_form(rec, baseline[i][name], branch, pressure_form_share, y))
             form = form[rows]
             series.append(Series(i, name, y[rows], np.hypot(noise, form), branch[rows] + branch0,
                                  block[rows] + block0, rows, noise,
-                                 float(np.sqrt(np.mean(form ** 2))) if form.size else 0.0))
+                                 float(np.sqrt(np.mean(form ** 2))) if form.size else 0.0, pressure_form_share))
         branch0 += int(branch.max(initial=0)) + 1
         block0 += int(block.max(initial=0)) + 1
     return DataSet(tuple(recordings), tuple(series))

@@ -16,7 +16,7 @@ from scipy.optimize import least_squares
 
 from pnmold.errors import SolveError
 
-from .data import DataSet
+from .data import PRESSURE_FORM_SHARE, DataSet
 
 #: z-score given to rows the model could not predict
 FAILED_Z = 1e4
@@ -72,11 +72,20 @@ def split_values(h: Hypothesis, x: np.ndarray) -> tuple[dict[str, float], dict[s
 
 
 def zscores(data: DataSet, predictions: list[dict[str, np.ndarray]]) -> np.ndarray:
-    """(measured - predicted) / noise for every row of every series, concatenated."""
+    """(measured - predicted) / noise for every row of every series, concatenated. A row the model
+    cannot reach because its pressure lies past the model's pressure maximum (the prediction's
+    ``pressure_excess``, a share of the row's pressure; its prediction the state at the maximum)
+    adds that share over the model's form error in pressure, in quadrature: continuous at the
+    maximum, and growing with how far out of reach the row is."""
     out = []
     for s in data.series:
-        f = np.asarray(predictions[s.recording][s.observable], float)[s.rows]
-        out.append((s.y - f) / s.sigma)
+        pred = predictions[s.recording]
+        f = np.asarray(pred[s.observable], float)[s.rows]
+        z = (s.y - f) / s.sigma
+        if "pressure_excess" in pred:
+            reach = np.asarray(pred["pressure_excess"], float)[s.rows] / (s.pressure_share or PRESSURE_FORM_SHARE)
+            z = np.where(z < 0, -1.0, 1.0) * np.hypot(z, reach)
+        out.append(z)
     return np.concatenate(out)
 
 

@@ -72,6 +72,13 @@ class Characterisation:
     def max_pressure_kpa(self) -> float:
         return float(self.pressure_kpa[-1])
 
+    @property
+    def ends_at_pressure_maximum(self) -> bool:
+        """The free run stopped at a pressure maximum (a limit point; the reason is the words of
+        :meth:`pnmold.fem.results.PressureMaximum.describe`): past its last pressure the actuator has
+        no equilibrium under pressure control, so the law there is not extrapolated."""
+        return self.full_bend_pressure_kpa is None and (self.reason or "").startswith("pressure maximum")
+
     def chamber_rotation_deg(self, design: Design) -> np.ndarray:
         """(S, n) rotation of each chamber's pitch of the bottom line (the first is clamped)."""
         if not self.has_rod:

@@ -215,7 +215,9 @@ class ReducedModel:
         default (gravity 1 g, the rest off); ``params``: more ``NAME.PARAM`` values;
         ``calibration``: nominal parameters (``modulus_scale``, 1 = the design's rubber; a camera
         frame's offset and rotation). ``partial``: rows without an equilibrium (past a limit point)
-        come back as NaN instead of raising :class:`SolveError`."""
+        come back as NaN instead of raising :class:`SolveError`; rows beyond the FE's pressure maximum
+        (none without ``partial``: an error) carry the state at the maximum, the nearest the model
+        comes, and ``pressure_excess`` > 0, the share of their pressure the model cannot hold."""
         values = fx.check_effects({**(effects or {}), **(params or {})}, model="rom")
         scale = _calibration(calibration or {})["modulus_scale"]
 
@@ -234,6 +236,14 @@ class ReducedModel:
         soft, soft_v, layer_stretch = self.layer_softening(layer, p_eff) if layer > 0 else (1.0, 1.0, 1.0)
         p_bend = p_eff["bend"] * soft  # the shape reads the free law further on
         p_vol = p_eff["volume"] * soft_v
+        excess = self._past_maximum(np.maximum(p_bend, p_vol))
+        past = excess > 0
+        if past.any():  # no equilibrium there: the state at the maximum, the nearest the model comes
+            if not partial:
+                at = ", ".join(f"{q:.4g}" for q in p[past[:-1]][:5])
+                raise SolveError(f"reduced model: no equilibrium of {self.design.name} at {at} kPa: beyond the FE's "
+                                 f"{self.characterisation.reason}")
+            p_bend, p_vol = np.minimum(p_bend, t.p[-1]), np.minimum(p_vol, t.p[-1])
         soft = np.broadcast_to(soft, p_bend.shape)
         stretch = np.broadcast_to(stretch * layer_stretch, p_bend.shape)
         angle = _interp(t.p, t.angle, p_bend)
@@ -268,10 +278,21 @@ class ReducedModel:
                "cavity_volume_ml": volume[:-1],
                "volume_ml": read_volume(volume[:-1] - volume[-1], volume[-1], p, m, v("dead_volume")),
                "max_principal_stretch": _interp(t.p, t.stretch, p_vol[:-1]),
-               "beyond_fe": p_bend[:-1] > t.p[-1] * (1.0 + BEYOND_FE_SHARE)}
+               "beyond_fe": past[:-1] | (p_bend[:-1] > t.p[-1] * (1.0 + BEYOND_FE_SHARE)),
+               "pressure_excess": excess[:-1]}
         if protocol.kind == "force":
             out["force_n"] = state.force_n[:-1]
         return out
+
+    def _past_maximum(self, p_read: np.ndarray) -> np.ndarray:
+        """Per row, the share of its pressure beyond the FE's pressure maximum (1 - p_max / p, on the
+        free law's pressure ``p_read``) when the characterisation ended at one, else 0: under pressure
+        control there is no equilibrium past a limit point (the actuator snaps), so the law is not
+        extrapolated there; the share says how far out of reach the row is."""
+        top = self.tables.p[-1]
+        if not self.characterisation.ends_at_pressure_maximum:
+            return np.zeros_like(p_read)
+        return np.where(p_read > top, 1.0 - top / np.maximum(p_read, top), 0.0)
 
 
     def _equilibria(self, angle: np.ndarray, length: np.ndarray, comp: np.ndarray, gxz: tuple[float, float],
