@@ -13,8 +13,15 @@ from pnmold.errors import SolveError
 from pnmold.recording import Recording
 
 from . import explain
-from .calibrate import (baseline_pinned, calibration_notes, calibration_parameters, check_material, modulus_pinned,
-                        other_rubber_fits, reach_scale)
+from .calibrate import (
+    baseline_pinned,
+    calibration_notes,
+    calibration_parameters,
+    check_material,
+    modulus_pinned,
+    other_rubber_fits,
+    reach_scale,
+)
 from .data import MODEL_FORM_SHARE, PRESSURE_FORM_SHARE, DataSet, build_dataset
 from .decide import DCHI2_MIN, Candidate, Decision, decide, excess_sigma
 from .fitting import Fitter, Forward, zscores
