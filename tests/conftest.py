@@ -84,3 +84,55 @@ def live(tmp_path_factory):
         return got[name]
 
     return get
+
+
+# -- packing the suite on the two test workers ---------------------------------------------------
+# pyproject's addopts run ``--dist loadfile --no-loadscope-reorder``: a file goes whole to one worker
+# (its module fixtures run once), and the files are queued in the order the workers collect them,
+# which this hook makes heaviest first. xdist's own order (most tests first) left the minutes-long FE
+# files of two or three tests (tests/test_rom_spn.py, tests/test_rom_families.py) to the end, on
+# one worker while the other idled. Nothing here changes what a test computes or asserts, only
+# where and when it runs. (``--dist loadgroup`` cannot split or merge files here: xdist 3.8 marks
+# a group in ``item._nodeid``, which pytest 9 no longer reads.)
+
+#: seconds of the heaviest files in a full run (2 workers on a busy machine, --durations=0): only
+#: their order matters, so a stale figure costs some balance, never a result
+FILE_SECONDS = {
+    "tests/test_quickfe.py": 1081, "tests/test_rom.py": 637, "tests/test_export.py": 594,
+    "tests/test_rom_families.py": 478, "tests/test_rom_spn.py": 387, "tests/test_sweep.py": 258,
+    "tests/test_pneumatics.py": 132, "tests/test_diagnose.py": 120, "tests/test_fem_path.py": 100,
+    "tests/test_report_html.py": 98, "tests/test_checks.py": 93, "tests/test_cad.py": 77,
+    "tests/test_diagnose_step.py": 77, "tests/test_fem.py": 70, "tests/test_install.py": 52,
+    "tests/test_cli.py": 50, "tests/test_recording.py": 48, "tests/test_reading.py": 33,
+    "tests/test_render.py": 32, "tests/test_mesh.py": 31, "tests/test_design_space.py": 18,
+    "tests/test_boundaries.py": 18, "tests/test_checklist.py": 18, "tests/test_progress.py": 15,
+    "tests/test_api.py": 14,
+}
+#: a file not in the table: this much a test
+DEFAULT_SECONDS_PER_TEST = 0.5
+
+
+def pytest_configure(config):
+    """On an xdist worker (one of two on the two cores): one thread per numerics library, as the sweep's
+    workers run. Two workers with two PARDISO/numba threads each put four threads on two cores:
+    measured on tests/test_rom_spn.py + tests/test_rom_families.py on two workers, 293 s wall and
+    551 s CPU with two threads each, 208 s and 356 s with one (the same tests passing)."""
+    if getattr(config, "workerinput", None) is not None:
+        import numba  # loaded first: its run-time setting, NUMBA_NUM_THREADS left as it is (tests/test_sweep.py)
+        from threadpoolctl import threadpool_limits
+
+        from pnmold.sweep.run import one_thread
+
+        one_thread()
+        threadpool_limits(1)  # numpy's OpenBLAS, loaded before the environment could say so
+        assert numba.get_num_threads() == 1
+
+
+def pytest_collection_modifyitems(config, items):
+    if getattr(config, "workerinput", None) is None:
+        return  # in one process (-n 0) the collection order stays
+    files = {}
+    for item in items:
+        files.setdefault(item.nodeid.split("::")[0], []).append(item)
+    weight = {path: FILE_SECONDS.get(path, DEFAULT_SECONDS_PER_TEST * len(members)) for path, members in files.items()}
+    items[:] = [item for path in sorted(files, key=lambda path: -weight[path]) for item in files[path]]

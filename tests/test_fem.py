@@ -507,10 +507,12 @@ def test_pardiso_reuses_its_analysis_for_the_same_pattern():
     solver.release()
 
 
-def test_pardiso_solves_several_right_hand_sides_and_keeps_both_cores_after_gmsh():
+def test_pardiso_solves_several_right_hand_sides_and_keeps_both_cores_after_gmsh(monkeypatch):
     """MKL is called directly: two right-hand sides in one call give the two single solves.
     A mesh made as pnmold.mesh makes it (HXT on General.NumThreads = 1) sets the process's
-    OpenMP threads to one, which MKL would follow; the solver sets MKL's own thread count."""
+    OpenMP threads to one, which MKL would follow; the solver sets MKL's own thread count
+    (two here: the suite's workers run one thread each, tests/conftest.py)."""
+    monkeypatch.setenv("MKL_NUM_THREADS", "2")
     import gmsh
     import scipy.sparse as sp
 
@@ -526,7 +528,7 @@ def test_pardiso_solves_several_right_hand_sides_and_keeps_both_cores_after_gmsh
         gmsh.model.occ.synchronize()
         gmsh.model.mesh.generate(3)
         solver = Pardiso()
-        assert solver._solver.libmkl.MKL_Get_Max_Threads() == _threads()
+        assert solver._solver.libmkl.MKL_Get_Max_Threads() == _threads() == 2
     finally:
         gmsh.finalize()
     n = 40
@@ -542,18 +544,19 @@ def test_pardiso_solves_several_right_hand_sides_and_keeps_both_cores_after_gmsh
 
 
 def test_the_fe_holds_openblas_to_one_thread_while_it_solves_and_restores_it():
-    from threadpoolctl import threadpool_info
+    from threadpoolctl import threadpool_info, threadpool_limits
 
     from pnmold.fem.linsolve import one_blas_thread
 
     def openblas() -> list[int]:
         return [p["num_threads"] for p in threadpool_info() if p["internal_api"] == "openblas"]
 
-    before = openblas()
-    assert before, "numpy's OpenBLAS is not loaded"
-    inside = one_blas_thread(openblas)()
-    assert inside == [1] * len(before)
-    assert openblas() == before
+    with threadpool_limits(2, user_api="blas"):  # the suite's workers run one thread: two here
+        before = openblas()
+        assert before and all(n == 2 for n in before), "numpy's OpenBLAS is not loaded"
+        inside = one_blas_thread(openblas)()
+        assert inside == [1] * len(before)
+        assert openblas() == before
 
 
 def test_the_scipy_fallback_solves_the_same_curve_as_pardiso(beam, monkeypatch):

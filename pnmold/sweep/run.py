@@ -48,7 +48,7 @@ def default_workers() -> int:
 
 
 # -- the worker side ----------------------------------------------------------------------
-def _one_thread() -> None:
+def one_thread() -> None:
     """One thread per numerics library in this process (pool workers, and workers pnmold did not start).
     The environment counts only for libraries not yet loaded; numba re-reads it at every
     compile and fails (RuntimeError) when NUMBA_NUM_THREADS changed after its threads
@@ -62,7 +62,7 @@ def _one_thread() -> None:
 def _init_local_worker(parent_pid: int) -> None:
     """Pool initializer: single-threaded numerics, and exit when the coordinator is gone
     (a SIGKILLed coordinator must not leave workers computing for nobody)."""
-    _one_thread()
+    one_thread()
 
     def watch() -> None:
         while os.getppid() == parent_pid:
@@ -107,7 +107,7 @@ def apply_values(base: Design, values: tuple[tuple[str, Any], ...]) -> Design:
 def run_point(point: Point, base: Design, run: RunOptions, build_dir: str | None = None) -> dict[str, Any]:
     """Build one point; never raises for a bad design or a failed build: the returned
     ``{"row": ..., "report": ...}`` says what happened (status ok, refused, failed, check_failed)."""
-    _one_thread()
+    one_thread()
     started, cpu0 = time.time(), time.process_time()
     row: dict[str, Any] = {"key": point.key, "overrides": point.as_dict(), **point.as_dict(),
                            "fem": run.fem, "mesh_wall_mm": run.wall_mm, "mesh_max_mm": run.max_mm,
