@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -62,8 +63,9 @@ def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = Non
             top.legend(fontsize=7)
             bottom.legend(fontsize=7)
     if ax is None:
-        fig.suptitle(diag.doc["summary"][:160] + ("..." if len(diag.doc["summary"]) > 160 else ""), fontsize=8)
-        fig.tight_layout()
+        # the summary's start, wrapped to the figure (one long line was cut off at both edges)
+        fig.suptitle(textwrap.fill(textwrap.shorten(diag.doc["summary"], 230, placeholder=" ..."), 115), fontsize=8)
+        fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.95))
     if path is not None:
         save_figure(fig, path, dpi=110, tight=False)
     return fig
