@@ -202,19 +202,17 @@ def _prediction(forward: Forward, recordings: Sequence[Recording], calibration: 
 def _past_maximum(predictions: list[dict[str, np.ndarray]], data: DataSet) -> bool:
     """Any kept row past the model's pressure maximum (``pressure_excess``): the modulus the window
     allows cannot reach the recordings."""
-    return any(np.any(np.asarray(predictions[s.recording].get("pressure_excess", [0.0]), float)[
-        s.rows if "pressure_excess" in predictions[s.recording] else [0]] > 0) for s in data.series)
+    return bool(_rows_where(predictions, data, "pressure_excess").any())
 
 
 def _out_of_reach(predictions: list[dict[str, np.ndarray]], data: DataSet) -> dict[int, np.ndarray]:
-    """Recording index -> the kept rows where the model has no equilibrium (NaN: past its limit point),
-    other than those past its pressure maximum (``pressure_excess``: scored, see :func:`.fitting.zscores`)."""
+    """Recording index -> the kept rows where the model has no equilibrium (NaN: past its limit point;
+    rows past the FE's pressure maximum are not NaN but scored, see :func:`.fitting.zscores`)."""
     out: dict[int, np.ndarray] = {}
     for s in data.series:
         f = np.asarray(predictions[s.recording][s.observable], float)
-        scored = np.asarray(predictions[s.recording].get("pressure_excess", np.zeros(f.size)), float) > 0
         bad = np.zeros(f.size, bool)
-        bad[s.rows] = ~np.isfinite(f[s.rows]) & ~scored[s.rows]
+        bad[s.rows] = ~np.isfinite(f[s.rows])
         if bad.any():
             out[s.recording] = out.get(s.recording, np.zeros(f.size, bool)) | bad
     return out

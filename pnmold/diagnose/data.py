@@ -176,8 +176,8 @@ def _slope_at(p: np.ndarray, f: np.ndarray, idx: np.ndarray) -> np.ndarray | Non
 def pressure_form(rec: Recording, prediction: np.ndarray, branch: np.ndarray,
                   share: float = PRESSURE_FORM_SHARE, measured: np.ndarray | None = None) -> np.ndarray:
     """Per row, ``share`` x p x |dy/dp| of the model's ``prediction`` along each branch (0 where
-    the recording is not quasi-static). Where the model has no equilibrium (past its pressure
-    maximum) the ``measured`` curve's own slope stands in: there the model's is unbounded."""
+    the recording is not quasi-static). Where the model has no equilibrium (NaN) the ``measured``
+    curve's own slope stands in."""
     out = np.zeros(len(rec))
     p = rec.columns.get("pressure_kpa")
     if rec.kind not in QUASI_STATIC or p is None:
@@ -193,17 +193,6 @@ def pressure_form(rec: Recording, prediction: np.ndarray, branch: np.ndarray,
         if measured is not None and not ok.all() and (own := _slope_at(p, np.asarray(measured, float), on)) is not None:
             slope[~ok] = own[~ok]
         out[on] = share * np.abs(p[on]) * slope
-    return out
-    p, f = np.asarray(p, float), np.asarray(prediction, float)
-    for b in np.unique(branch):
-        on = branch == b
-        for idx, curve in ((np.flatnonzero(on & np.isfinite(f)), f),
-                           (np.flatnonzero(on & ~np.isfinite(f)), measured)):
-            if curve is None or not idx.size:
-                continue
-            slope = _slope_at(p, curve, idx if curve is f else np.flatnonzero(on))
-            if slope is not None:
-                out[idx] = share * np.abs(p[idx]) * (slope if curve is f else slope[np.isin(np.flatnonzero(on), idx)])
     return out
 
 
