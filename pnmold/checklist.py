@@ -147,6 +147,16 @@ def checklist_sections(design: Design, report: dict[str, Any]) -> list[Section]:
             "Alternative: cure the bottom layer alone, then bond the top layer to it with a silicone adhesive "
             "such as Elastosil E951.",
             "Demold the actuator and trim the flash.")),
+        *((Section("Cast the passive side and bond it under the bottom layer", (
+            "Cast a second top layer in the same two molds, exactly as above: it is the passive side.",
+            *_pour_steps(pours["passive_layer"], design.material, material),
+            _cure_step(material, "passive side"),
+            "Turn it over, chambers up, and bond the actuator's bottom layer onto it with a thin coat of the "
+            "same rubber, filling the paper stops' dimples in the bottom layer's face, its ends and edges "
+            "flush with the top layer's.",
+            f"Punch its inlet too ({design.top_z0_mm - design.inlet_axis_z_mm + design.bottom_z0_mm:.2f} mm "
+            "above the bottom face): its chambers stay open to the room while the other side is driven.")),)
+          if design.passive_side.present else ()),
         Section("Inlet and tubing", (
             "Punch the inlet with a 2 mm biopsy punch: at the end face x = 0, centred across the width, "
             f"{zc:.2f} mm above the bottom face, straight along the actuator for {design.inlet_depth_mm:.1f} mm "

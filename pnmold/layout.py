@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 MOLDS = ("mold_interior", "mold_exterior", "mold_bottom")
-CAST_PARTS = ("actuator", "top_layer", "bottom_layer", "paper")
+CAST_PARTS = ("actuator", "top_layer", "bottom_layer", "passive_layer", "paper")
 
 
 @dataclass(frozen=True)

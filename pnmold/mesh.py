@@ -10,9 +10,10 @@ where they lie, using the design's layout: ``cavity`` inside the cores' closure,
 ``clamp`` on the top and bottom faces of the proximal chamber (supplement: "zero
 displacements at the top and bottom face of the proximal pneu-net chamber"), or of the first
 ``clamp.length_mm``,
-``strain_limiting_layer`` on the bottom face under the paper sheet (or, for a sheet embedded
-``paper.depth_mm`` above it, the tetrahedra's inner faces on its plane, which the mesh is made
-to conform to), ``free_end`` at x = L, ``symmetry`` on y = 0. No gmsh state leaves this module.
+``strain_limiting_layer`` on the bottom face under the paper sheet (or, for a sheet inside the body --
+embedded ``paper.depth_mm`` above the bottom layer's face, or over a passive side -- the tetrahedra's
+inner faces on its plane, which the mesh is made to conform to), ``free_end`` at x = L,
+``symmetry`` on y = 0. No gmsh state leaves this module.
 """
 
 from __future__ import annotations
@@ -101,13 +102,13 @@ def _in_paper_outline(centre: np.ndarray, design: Design) -> np.ndarray:
 
 
 def embedded_sheet(nodes: np.ndarray, tets: np.ndarray, design: Design) -> np.ndarray:
-    """The inner faces on the plane of a sheet embedded ``paper.depth_mm`` above the bottom face, within
-    its outline (none for a sheet on the bottom face or no sheet)."""
-    if not design.paper.present or design.paper.depth_mm <= 0:
+    """The inner faces on the plane of a sheet inside the body (``Design.sheet_z_mm`` above the bottom
+    face), within its outline (none for a sheet on the bottom face or no sheet)."""
+    if not design.paper.present or design.sheet_z_mm <= 0:
         return np.zeros((0, 3), np.int64)
     faces, _ = _distinct_faces(tets)
     p = nodes[faces]
-    flat = np.all(np.abs(p[:, :, 2] - design.paper.depth_mm) < _TOL, axis=1)
+    flat = np.all(np.abs(p[:, :, 2] - design.sheet_z_mm) < _TOL, axis=1)
     return faces[flat & _in_paper_outline(p.mean(axis=1), design)]
 
 
@@ -122,7 +123,7 @@ def name_facets(nodes: np.ndarray, facets: np.ndarray, design: Design, half: boo
     proximal = x <= design.clamp_end_mm + _TOL
     top = (np.abs(z - design.height_mm) < _TOL) & (normal[:, 2] > 0.99)
     bottom = (np.abs(z) < _TOL) & (normal[:, 2] < -0.99)
-    under_paper = bottom & _in_paper_outline(centre, design) & design.paper.present & (design.paper.depth_mm <= 0)
+    under_paper = bottom & _in_paper_outline(centre, design) & design.paper.present & (design.sheet_z_mm <= 0)
     free_end = (np.abs(x - design.length_mm) < _TOL) & (normal[:, 0] > 0.99)
     named = {CAVITY: cavity, CLAMP: proximal & (top | bottom), STRAIN_LIMITING_LAYER: under_paper,
              FREE_END: free_end}
@@ -154,7 +155,7 @@ def _geometry(step: Path, design: Design, half: bool) -> list[int]:
     if design.paper.present:
         px, py = design.paper_size_mm
         y0 = 0.0 if half else -py / 2
-        tools.append((2, occ.addRectangle(design.paper.inset_mm, y0, design.paper.depth_mm, px,
+        tools.append((2, occ.addRectangle(design.paper.inset_mm, y0, design.sheet_z_mm, px,
                                           py / 2 if half else py)))
     x_clamp = design.clamp_end_mm
     cut = occ.addRectangle(-2.0, -design.width_mm, 0.0, design.height_mm + 4, 2 * design.width_mm)
@@ -162,8 +163,8 @@ def _geometry(step: Path, design: Design, half: bool) -> list[int]:
     occ.translate([(2, cut)], x_clamp, 0, 0)
     tools.append((2, cut))
     if design.layer_material.name:
-        tools.append((2, occ.addRectangle(-1.0, -design.width_mm, design.top_z0_mm, design.length_mm + 2,
-                                          2 * design.width_mm)))
+        for z in {design.bottom_z0_mm, design.top_z0_mm} - {0.0}:
+            tools.append((2, occ.addRectangle(-1.0, -design.width_mm, z, design.length_mm + 2, 2 * design.width_mm)))
     occ.fragment(gmsh.model.occ.getEntities(3), tools)
     occ.synchronize()
     loose = [(2, t) for _, t in gmsh.model.getEntities(2) if len(gmsh.model.getAdjacencies(2, t)[0]) == 0]
@@ -257,14 +258,15 @@ def mesh_actuator(step: str | Path, design: Design, size: MeshSize | None = None
     vol = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]) / 6
     tets[vol < 0] = tets[vol < 0][:, [0, 2, 1, 3]]
     facets = name_facets(nodes, boundary_facets(tets), design, size.half)
-    if design.paper.depth_mm > 0:
+    if design.sheet_z_mm > 0:
         facets[STRAIN_LIMITING_LAYER] = embedded_sheet(nodes, tets, design)
     for name in (CAVITY, CLAMP, FREE_END):
         if len(facets[name]) == 0:
             raise MeshingError(f"{step}: no facets found for the boundary {name!r}")
     regions = {ELASTOMER: np.arange(len(tets))}
     if design.layer_material.name:
-        regions[BOTTOM_LAYER] = np.flatnonzero(nodes[tets][:, :, 2].mean(axis=1) < design.top_z0_mm)
+        z = nodes[tets][:, :, 2].mean(axis=1)
+        regions[BOTTOM_LAYER] = np.flatnonzero((z > design.bottom_z0_mm) & (z < design.top_z0_mm))
     mesh = TetMesh(nodes, tets, facets, regions, tip_mm=(design.length_mm, 0.0, 0.0), half=size.half)
     quality = MeshQuality(len(nodes), len(tets), float(gamma.min()), float(gamma.mean()),
                           float(np.abs(vol).min()))

@@ -48,17 +48,18 @@ def pours(design: Design, parts: dict[str, dict[str, Any]]) -> list[dict[str, An
     """
     margin = design.casting.waste_margin
     paper_mm3 = parts["paper"]["volume_mm3"] if "paper" in parts else 0.0
-    cast = {
-        "mold_exterior+mold_interior": (parts["top_layer"]["volume_mm3"], design.material),
-        "mold_bottom": (parts["bottom_layer"]["volume_mm3"] - paper_mm3, design.bottom_material),
-    }
+    cast = [("mold_exterior+mold_interior", "top_layer", parts["top_layer"]["volume_mm3"], design.material),
+            ("mold_bottom", "bottom_layer", parts["bottom_layer"]["volume_mm3"] - paper_mm3, design.bottom_material)]
+    if "passive_layer" in parts:  # a second top layer from the same molds
+        cast.append(("mold_exterior+mold_interior", "passive_layer", parts["passive_layer"]["volume_mm3"],
+                     design.material))
     out = []
-    for mold, (volume_mm3, m) in cast.items():
+    for mold, part, volume_mm3, m in cast:
         volume_ml = volume_mm3 / 1000.0
         mass_g = volume_ml * m.density_g_per_ml
         mix_g = mass_g * (1.0 + margin)
         a = mix_g * m.mix_ratio_a_to_b / (m.mix_ratio_a_to_b + 1.0)
-        out.append({"mold": mold, "part": "top_layer" if "interior" in mold else "bottom_layer",
+        out.append({"mold": mold, "part": part,
                     "material": m.name, "volume_ml": round(volume_ml, 4), "mass_g": round(mass_g, 4),
                     "waste_margin": margin, "mix_g": round(mix_g, 4),
                     "part_a_g": round(a, 4), "part_b_g": round(mix_g - a, 4)})

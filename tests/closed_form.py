@@ -73,8 +73,12 @@ def part_volumes_mm3(d: Design) -> dict[str, float]:
     interior = (L + 2 * s) * (W + 2 * s) * m.plate_mm + cores
     h = tb + m.pour_allowance_mm
     bottom_mold = (L + 2 * m.wall_mm) * (W + 2 * m.wall_mm) * (m.wall_mm + h) - L * W * h + stops_mm3(d)
-    return {
+    volumes = {
         "actuator": top + bottom - bore_parts_mm3(d)[0],
         "top_layer": top, "bottom_layer": bottom, "paper": px * py * d.paper.thickness_mm,
         "mold_interior": interior, "mold_exterior": exterior, "mold_bottom": bottom_mold,
     }
+    if d.passive_side.present:  # the top layer again, its own bore punched; the bond coat fills the stops
+        volumes["passive_layer"] = top
+        volumes["actuator"] += top + stops_mm3(d) - bore_parts_mm3(d)[0]
+    return volumes

@@ -5,7 +5,6 @@ from __future__ import annotations
 import gmsh
 import pytest
 
-from pnmold.cad import PART_NAMES
 from pnmold.checks import solids as S
 from pnmold.checks.mesh_checks import surface_pieces
 from pnmold.design import load_design
@@ -19,7 +18,7 @@ from tests.conftest import TEMPLATES
 def test_part_volumes_match_closed_form(built, template):
     result = built(template)
     expected = part_volumes_mm3(result.design)
-    for name in PART_NAMES:
+    for name in result.design.part_names:
         got = result.report["parts"][name]["volume_mm3"]
         # boxes are exact; the tessellated inlet bore is the only curved face
         assert got == pytest.approx(expected[name], rel=2e-4), name
@@ -27,8 +26,9 @@ def test_part_volumes_match_closed_form(built, template):
 
 @pytest.mark.parametrize("template", TEMPLATES)
 def test_every_stl_is_a_closed_consistently_wound_solid(built, template):
-    out = built(template).out_dir
-    for name in PART_NAMES:
+    result = built(template)
+    out = result.out_dir
+    for name in result.design.part_names:
         mesh = load_stl(out / f"{name}.stl")
         assert mesh.is_watertight, name
         assert mesh.is_winding_consistent, name
@@ -38,9 +38,10 @@ def test_every_stl_is_a_closed_consistently_wound_solid(built, template):
 
 @pytest.mark.parametrize("template", TEMPLATES)
 def test_step_reimports_in_gmsh_with_the_stl_volume(built, template):
-    out = built(template).out_dir
+    result = built(template)
+    out = result.out_dir
     with gmsh_session():
-        for name in PART_NAMES:
+        for name in result.design.part_names:
             gmsh.clear()
             entities = gmsh.model.occ.importShapes(str(out / f"{name}.step"))
             gmsh.model.occ.synchronize()

@@ -8,13 +8,13 @@ from types import SimpleNamespace
 
 import pytest
 
-from pnmold.cad import PART_NAMES
 from pnmold.cli import main
 from pnmold.cli._main import VERBS
+from pnmold.design import load_design
 from pnmold.errors import GeometryError
 from tests.test_design import INVALID
 
-BUILD_FILES = {f"{n}.{ext}" for n in PART_NAMES for ext in ("step", "stl")} | {
+BUILD_FILES = {f"{n}.{ext}" for n in load_design("fpn").part_names for ext in ("step", "stl")} | {
     "design.toml", "report.json"}
 
 
@@ -26,7 +26,7 @@ def test_build_writes_every_contract_file(tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["schema"] == "pnmold.build/1"
     assert report["design"]["name"] == "fpn" and len(report["design"]["digest"]) == 16
-    for name in PART_NAMES:
+    for name in load_design("fpn").part_names:
         assert report["parts"][name]["watertight"] is True
         assert report["parts"][name]["volume_mm3"] > 0
     pours = {p["mold"]: p for p in report["pours"]}

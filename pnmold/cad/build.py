@@ -27,10 +27,12 @@ def make_parts(design: Design) -> dict[str, cq.Shape]:
     """Every part of :attr:`Design.part_names` as a CadQuery solid, in casting position (CONTRACTS.md §2)."""
     top = parts.top_layer(design)
     bottom = parts.bottom_layer(design)
+    passive = parts.passive_layer(design, top)
     made = {
-        "actuator": parts.actuator(design, top, bottom),
+        "actuator": parts.actuator(design, top, bottom, passive),
         "top_layer": top,
         "bottom_layer": bottom,
+        "passive_layer": passive,
         "paper": parts.paper(design) if design.paper.present else None,
         "mold_interior": molds.interior_mold(design),
         "mold_exterior": molds.exterior_mold(design),
@@ -55,7 +57,8 @@ def _atomic(path: Path, write) -> None:
 def export_actuator_step(design: Design, folder: str | Path) -> Path:
     """Only the cast actuator, as ``folder/actuator.step``: what the FE meshes when no build
     folder is at hand (the same solid a build exports)."""
-    shape = parts.actuator(design, parts.top_layer(design), parts.bottom_layer(design))
+    top = parts.top_layer(design)
+    shape = parts.actuator(design, top, parts.bottom_layer(design), parts.passive_layer(design, top))
     path = Path(folder) / "actuator.step"
     path.parent.mkdir(parents=True, exist_ok=True)
     _atomic(path, lambda tmp: cq.exporters.export(shape, tmp, exportType="STEP"))

@@ -7,7 +7,8 @@ the registration ledge plus the clearance, that the interior plate slides into u
 seats against the ledge at the top layer's base: that fixes the chambers' depth. The rim
 reaches past the plate by the pour allowance. Bottom mold: a tray whose pocket is the
 bottom layer, with L-shaped stops on its floor that locate the paper, and a rim rising by
-the pour allowance where the top layer is set into the uncured bottom layer.
+the pour allowance where the top layer is set into the uncured bottom layer. A passive side
+(``[passive_side]``) is a second top layer from the same two molds, bonded under the bottom layer.
 For pouring, the exterior mold is turned over (ceiling down) and the interior mold is
 pressed in from above; every mold prints flat on its largest face without supports.
 """
@@ -54,12 +55,13 @@ def exterior_mold(design: Design) -> cq.Shape:
 
 
 def bottom_mold(design: Design) -> cq.Shape:
+    """The tray, its floor under the bottom layer (above the passive side, in a design with one)."""
     m = design.mold
-    t = design.bottom_layer.thickness_mm
+    z0, z1 = design.bottom_z0_mm, design.top_z0_mm
     outer = box("bottom mold", (-m.wall_mm, design.length_mm + m.wall_mm),
-                _sym(design.width_mm / 2 + m.wall_mm), (-m.wall_mm, t + m.pour_allowance_mm))
+                _sym(design.width_mm / 2 + m.wall_mm), (z0 - m.wall_mm, z1 + m.pour_allowance_mm))
     pocket = box("bottom mold pocket", (0.0, design.length_mm), _sym(design.width_mm / 2),
-                 (0.0, t + m.pour_allowance_mm + 1.0))
+                 (z0, z1 + m.pour_allowance_mm + 1.0))
     tray = cut("bottom mold pocket", outer, [pocket])
     stops = paper_seat_stops(design)
     return fuse("bottom mold paper seat", [tray, *stops]) if stops else tray

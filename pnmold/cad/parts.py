@@ -6,7 +6,9 @@ along y = 0 at the bottom, from halfway into the proximal end wall to the last c
 Bottom layer: a slab whose underside carries the dimples of the mold's paper stops; the
 paper lies flush on the mold floor (z = 0) inside it, or ``paper.depth_mm`` above it on a first
 pour of rubber (the stops then rise that much higher to locate its corners there). Actuator: both layers bonded, with
-the inlet punched along +x from the end face into the channel.
+the inlet punched along +x from the end face into the channel. Passive layer (a design with a passive
+side, ``[passive_side]``): the top layer mirrored about the bottom layer's mid-plane, under it, with
+its own inlet punched (vented); the bottom layer, the paper and their stops then sit that much higher.
 """
 
 from __future__ import annotations
@@ -41,6 +43,11 @@ def inlet_bore(design: Design) -> cq.Shape:
     return cylinder_x("inlet bore", r, (-1.0, design.inlet_depth_mm), 0.0, design.inlet_axis_z_mm)
 
 
+def mirrored(design: Design, shape: cq.Shape) -> cq.Shape:
+    """``shape`` mirrored about the bottom layer's mid-plane: the top layer's features on the passive side."""
+    return shape.mirror("XY", (0.0, 0.0, design.mid_plane_z_mm))
+
+
 def top_layer_envelope(design: Design) -> cq.Shape:
     """The box the top layer is cast in (the casting region of the top-layer molds)."""
     z0 = design.top_z0_mm
@@ -71,6 +78,7 @@ def paper_seat_stops(design: Design) -> list[cq.Shape]:
     px, py = design.paper_size_mm
     x0, y0, h, w, a = p.inset_mm, -py / 2, design.seat_top_mm, m.seat_width_mm, m.seat_arm_mm
     stops = []
+    z0 = design.bottom_z0_mm
     for sx in (0, 1):
         for sy in (0, 1):
             cx = x0 + sx * px  # paper corner
@@ -80,25 +88,33 @@ def paper_seat_stops(design: Design) -> list[cq.Shape]:
             ax = (cx - w, cx + a) if sx == 0 else (cx - a, cx + w)
             ay = (cy - w, cy + a) if sy == 0 else (cy - a, cy + w)
             stops.append(fuse(f"paper stop {2 * sx + sy + 1}", [
-                box("paper stop arm x", ax, oy, (0.0, h)),
-                box("paper stop arm y", ox, ay, (0.0, h))]))
+                box("paper stop arm x", ax, oy, (z0, z0 + h)),
+                box("paper stop arm y", ox, ay, (z0, z0 + h))]))
     return stops
 
 
 def bottom_layer(design: Design) -> cq.Shape:
-    slab = box("bottom layer", (0.0, design.length_mm), _y(design),
-               (0.0, design.bottom_layer.thickness_mm))
+    slab = box("bottom layer", (0.0, design.length_mm), _y(design), (design.bottom_z0_mm, design.top_z0_mm))
     stops = paper_seat_stops(design)
     return cut("bottom layer stops", slab, stops) if stops else slab
 
 
 def paper(design: Design) -> cq.Shape:
     px, py = design.paper_size_mm
-    z0 = design.paper.depth_mm
+    z0 = design.sheet_z_mm
     return box("paper", (design.paper.inset_mm, design.paper.inset_mm + px), (-py / 2, py / 2),
                (z0, z0 + design.paper.thickness_mm))
 
 
-def actuator(design: Design, top: cq.Shape, bottom: cq.Shape) -> cq.Shape:
-    bonded = fuse("bonded actuator", [top, bottom])
-    return cut("inlet punch", bonded, [inlet_bore(design)])
+def passive_layer(design: Design, top: cq.Shape) -> cq.Shape | None:
+    """The passive side: the top layer as cast, turned over under the bottom layer (None without one)."""
+    return mirrored(design, top) if design.passive_side.present else None
+
+
+def actuator(design: Design, top: cq.Shape, bottom: cq.Shape, passive: cq.Shape | None = None) -> cq.Shape:
+    """The bonded layers with the inlet punched (and the passive side's, which vents it). Under a passive
+    side the paper stops' dimples in the bottom layer's face are filled by the coat that bonds it."""
+    lower = [passive, *paper_seat_stops(design)] if passive is not None else []
+    bonded = fuse("bonded actuator", [top, bottom, *lower])
+    bores = [inlet_bore(design), *([mirrored(design, inlet_bore(design))] if passive is not None else [])]
+    return cut("inlet punch", bonded, bores)

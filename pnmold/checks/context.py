@@ -53,7 +53,7 @@ class BuildFiles:
 
     def bottom_envelope(self) -> mf.Manifold:
         d = self.design
-        return S.box((0, -d.width_mm / 2, 0), (d.length_mm, d.width_mm / 2, d.bottom_layer.thickness_mm))
+        return S.box((0, -d.width_mm / 2, d.bottom_z0_mm), (d.length_mm, d.width_mm / 2, d.top_z0_mm))
 
     def inlet_bore(self) -> mf.Manifold:
         """The punched bore, slightly oversized to swallow its tessellation."""

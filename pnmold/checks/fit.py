@@ -105,9 +105,30 @@ def _apart(files: BuildFiles) -> Finding:
                     tol=LENGTH_TOL_MM)
 
 
+def _passive_side(files: BuildFiles) -> list[Finding]:
+    """A passive side is cast in the top layer's molds: it must be the top layer turned over about the
+    bottom layer's mid-plane, and it must not overlap the bottom layer (no findings without one)."""
+    d = files.design
+    if not d.passive_side.present:
+        return []
+    names = ["passive_layer", "top_layer", "bottom_layer"]
+    passive, top, bottom = (files.solid(n) for n in names)
+    if passive is None or top is None or bottom is None:
+        return [_missing("fit.passive.mirror", names)]
+    turned = top.mirror((0.0, 0.0, 1.0)).translate((0.0, 0.0, 2 * d.mid_plane_z_mm))
+    mismatch = S.volume(passive - turned) + S.volume(turned - passive)
+    limit = OVERLAP_FRACTION * S.volume(top) + 1.0
+    return [
+        at_most("fit.passive.mirror", mismatch, limit,
+                "passive layer differing from the top layer turned over (what the top layer's molds cast)", " mm3"),
+        at_most("fit.overlap.passive", S.overlap(passive, bottom), OVERLAP_FRACTION * S.volume(passive),
+                "overlap of the passive layer with the bottom layer", " mm3"),
+    ]
+
+
 def check_fit(files: BuildFiles) -> list[Finding]:
     return [
         *_partition(files, "top", ["top_layer", "mold_interior", "mold_exterior"], files.top_envelope()),
         *_partition(files, "bottom", ["bottom_layer", "mold_bottom"], files.bottom_envelope()),
-        _seat(files), _cavity(files), _slide_clearance(files), _apart(files),
+        _seat(files), _cavity(files), _slide_clearance(files), _apart(files), *_passive_side(files),
     ]

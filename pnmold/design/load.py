@@ -210,7 +210,7 @@ def to_toml(design: Design) -> str:
 #: fields added after the first designs were keyed: they enter the digest only when a design sets them
 #: off their default, so the designs that do not use them keep their digests (and their caches)
 _OPTIONAL_SINCE_V1 = {"chambers.tip_wall_mm": 0.0, "clamp.length_mm": 0.0, "paper.present": True, "paper.depth_mm": 0.0,
-                      "layer_material.name": "",
+                      "passive_side.present": False, "layer_material.name": "",
                       "layer_material.c10_mpa": 0.0, "layer_material.c20_mpa": 0.0, "layer_material.c30_mpa": 0.0,
                       "layer_material.density_g_per_ml": 0.0, "layer_material.mix_ratio_a_to_b": 0.0}
 

@@ -20,7 +20,8 @@ from pnmold.materials.library import ELASTOSIL
 
 KINDS = ("fpn", "spn")
 #: the parts of a build, in build order (CONTRACTS.md §3: file stems)
-PART_NAMES = ("actuator", "top_layer", "bottom_layer", "paper", "mold_interior", "mold_exterior", "mold_bottom")
+PART_NAMES = ("actuator", "top_layer", "bottom_layer", "passive_layer", "paper", "mold_interior", "mold_exterior",
+              "mold_bottom")
 
 
 def _f(default, doc: str, source: str = "assumed"):
@@ -85,6 +86,18 @@ class TopLayer:
 @dataclass(frozen=True)
 class BottomLayer:
     thickness_mm: float = _f(2.0, "strain-limiting layer thickness (paper included)", "assumed")
+
+
+@dataclass(frozen=True)
+class PassiveSide:
+    """The other side of a bidirectional segment: a second top layer, unpressurised, bonded under the
+    bottom layer with its chambers facing it (the mirror image of the top layer about the bottom layer's
+    mid-plane). It is cast in the top layer's own molds; its chambers are vented through their own
+    punched inlet (assumed: open to the room while the other side is driven). The actuator then bends
+    about a strain-limiting layer in its middle, and the passive side's ribs and roof resist the bend."""
+
+    present: bool = _f(False, "a second, unpressurised top layer under the bottom layer (bidirectional segment)",
+                       "-")
 
 
 @dataclass(frozen=True)
@@ -200,7 +213,8 @@ class Printer:
 
 SECTIONS = {
     "design": Meta, "chambers": Chambers, "channel": Channel, "top_layer": TopLayer,
-    "bottom_layer": BottomLayer, "paper": Paper, "clamp": Clamp, "inlet": Inlet, "mold": Mold,
+    "bottom_layer": BottomLayer, "passive_side": PassiveSide, "paper": Paper, "clamp": Clamp, "inlet": Inlet,
+    "mold": Mold,
     "material": Material, "layer_material": LayerMaterial, "casting": Casting, "printer": Printer,
 }
 
@@ -214,6 +228,7 @@ class Design:
     channel: Channel = field(default_factory=Channel)
     top_layer: TopLayer = field(default_factory=TopLayer)
     bottom_layer: BottomLayer = field(default_factory=BottomLayer)
+    passive_side: PassiveSide = field(default_factory=PassiveSide)
     paper: Paper = field(default_factory=Paper)
     clamp: Clamp = field(default_factory=Clamp)
     inlet: Inlet = field(default_factory=Inlet)
@@ -245,8 +260,10 @@ class Design:
 
     @property
     def part_names(self) -> tuple[str, ...]:
-        """The parts a build exports (CONTRACTS.md §3): no paper sheet in a design without one."""
-        return tuple(n for n in PART_NAMES if self.paper.present or n != "paper")
+        """The parts a build exports (CONTRACTS.md §3): no paper sheet in a design without one, a passive
+        layer only in a design with a passive side."""
+        absent = {"paper": not self.paper.present, "passive_layer": not self.passive_side.present}
+        return tuple(n for n in PART_NAMES if not absent.get(n, False))
 
     def replace(self, section: str, **changes) -> Design:
         """A new design with fields of one section changed (no mutation)."""
@@ -292,9 +309,24 @@ class Design:
 
     # -- z layout -------------------------------------------------------------------
     @property
+    def bottom_z0_mm(self) -> float:
+        """Bottom face of the bottom layer: 0, or the passive side's height under it."""
+        return self.top_height_mm if self.passive_side.present else 0.0
+
+    @property
     def top_z0_mm(self) -> float:
         """Bottom face of the top layer = top face of the bottom layer."""
-        return self.bottom_layer.thickness_mm
+        return self.bottom_z0_mm + self.bottom_layer.thickness_mm
+
+    @property
+    def mid_plane_z_mm(self) -> float:
+        """The bottom layer's mid-plane: the passive side is the top layer mirrored about it."""
+        return (self.bottom_z0_mm + self.top_z0_mm) / 2
+
+    @property
+    def sheet_z_mm(self) -> float:
+        """Height of the paper sheet's lower face: ``paper.depth_mm`` above the bottom layer's face."""
+        return self.bottom_z0_mm + self.paper.depth_mm
 
     @property
     def top_height_mm(self) -> float:
@@ -333,7 +365,8 @@ class Design:
         x0, x1 = self.channel_x_mm
         channel = (x1 - x0 - c.count * c.length_mm) * ch.width_mm * ch.height_mm
         gaps = (c.count - 1) * self.gap_mm * self.width_mm * (self.top_height_mm - self.top_layer.floor_mm)
-        return envelope - cavities - channel - gaps
+        sides = 2 if self.passive_side.present else 1  # the passive side is a second top layer
+        return envelope - sides * (cavities + channel + gaps)
 
     @property
     def elastomer_mass_g(self) -> float:

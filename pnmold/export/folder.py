@@ -109,7 +109,7 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
         doc.setdefault("regions", {})[name] = {
             **{k: v for k, v in material_constants(rubber, None).items() if k not in ("schema", "units")},
             "elements": f"the deck's element set {name.upper()}; in SOFA's mesh the tetrahedra whose centroid "
-                        f"lies below z = {design.top_z0_mm:g} mm"}
+                        f"lies between z = {design.bottom_z0_mm:g} and {design.top_z0_mm:g} mm"}
     mesh, _ = mesh_actuator(build_dir / "actuator.step", design, size)
     out = Path(out_dir) if out_dir is not None else build_dir / fmt
     if fmt == "sofa":

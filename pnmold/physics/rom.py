@@ -353,7 +353,7 @@ def _contact_onset(design: Design, c: Characterisation, gap_scale: float) -> flo
         return float("inf")
     ch = design.chambers
     n = ch.count
-    z0 = design.top_z0_mm
+    z0 = design.top_z0_mm - design.bottom_z0_mm  # the top layer's base above the bottom layer's face
     theta = np.radians(c.bend_angle_deg) / max(n - 1, 1)
     dv = (c.cavity_volume_ml - c.cavity_volume_ml[0]) * 1000.0 / n
     wedge = theta * ch.width_mm * ((z0 + ch.height_mm) ** 2 - z0 ** 2) / 2

@@ -1,8 +1,10 @@
 """Cross-sections of the actuator along x, from the design's layout (no CAD, no mesh).
 
-The body is boxes (``pnmold.cad.parts``): the bottom layer (0 <= z <= z0) under the top
+The body is boxes (``pnmold.cad.parts``): the bottom layer (z_b <= z <= z0) under the top
 layer's envelope (z0 <= z <= z0 + top height), less the fPN gaps above the floor, the
-chamber cavities and the channel. The paper and the inlet bore are ignored (together
+chamber cavities and the channel; a passive side (0 <= z <= z_b, else z_b = 0) is the top layer
+mirrored about the bottom layer's mid-plane, its cavities unpressurised. The paper and the
+inlet bore are ignored (together
 0.2 % of the volume of the templates: 16 817 mm^3 here against 16 789 mm^3 exported for
 the fPN). Per unit length at x: area, first and second moments about the bottom face
 (z = 0, the paper), and the same for the cavity and for the top layer's material.
@@ -30,7 +32,7 @@ class Sections:
     second_moment_mm4: np.ndarray  # int z^2 dA about z = 0 (bending about the paper)
     cavity_area_mm2: np.ndarray  # air: chambers and channel
     cavity_moment_mm3: np.ndarray
-    top_area_mm2: np.ndarray  # elastomer above the bottom layer
+    top_area_mm2: np.ndarray  # elastomer of the top layer's rubber: the top layer and a passive side
     top_moment_mm3: np.ndarray
 
 
@@ -46,7 +48,7 @@ def sections(design: Design, x_mm: np.ndarray | None = None) -> Sections:
     z0, top = design.top_z0_mm, design.top_height_mm
     c = design.chambers
     inside = ((x >= 0) & (x <= L)).astype(float)
-    bottom = np.array(_band(0.0, z0)) * W
+    bottom = np.array(_band(design.bottom_z0_mm, z0)) * W
     top_full = np.array(_band(z0, z0 + top)) * W
     removed = np.zeros((3, x.size))
     cavity = np.zeros((3, x.size))
@@ -66,6 +68,10 @@ def sections(design: Design, x_mm: np.ndarray | None = None) -> Sections:
     m = (x > a) & (x < b) & ~in_cavity
     cavity[:, m] += np.array(_band(z0, z0 + design.channel.height_mm))[:, None] * design.channel.width_mm
     top_part = (top_full[:, None] - removed - cavity) * inside
+    if design.passive_side.present:  # z -> 2 zm - z: A, 2 zm A - Q, 4 zm^2 A - 4 zm Q + I
+        zm = design.mid_plane_z_mm
+        a, q, i2 = top_part
+        top_part = top_part + np.array([a, 2 * zm * a - q, 4 * zm ** 2 * a - 4 * zm * q + i2])
     total = bottom[:, None] * inside + top_part
     return Sections(x, total[0], total[1], total[2], cavity[0] * inside, cavity[1] * inside,
                     top_part[0], top_part[1])

@@ -128,5 +128,5 @@ def pressure_moment_m3(design) -> float:
     """k_p = cavity cross-section x centroid height above the paper's mid-plane (m^3)."""
     c = design.chambers
     area = c.width_mm * c.height_mm
-    lever = design.top_z0_mm + c.height_mm / 2 - design.paper.thickness_mm / 2
+    lever = design.top_z0_mm + c.height_mm / 2 - design.sheet_z_mm - design.paper.thickness_mm / 2
     return area * lever * 1e-9
