@@ -55,7 +55,14 @@ def test_reads_the_ecoflex_file_with_its_comment_lines(ecoflex):
 
 
 def test_yeoh_fit_of_ecoflex_holds_over_the_range_it_reports(ecoflex):
-    result = fit_hyperelastic(ecoflex, "yeoh")
+    """Unconstrained (its C30 is slightly negative) the fit holds from 10 % to 200 % strain and beyond;
+    with C30 held at 0 (the default) over the whole test it holds only at large strains, and says so."""
+    held = fit_hyperelastic(ecoflex, "yeoh")
+    assert held.held_at_zero == ("c30_mpa",) and held.strain_range[0] > 1.0
+    inside = (ecoflex.strain >= held.strain_range[0]) & (ecoflex.strain <= held.strain_range[1])
+    assert _r2(ecoflex.stress_mpa[inside], held.stress(ecoflex.strain[inside])) >= 0.99
+    assert "does not hold at small strains" in held.summary()
+    result = fit_hyperelastic(ecoflex, "yeoh", nonnegative=False)
     lo, hi = result.strain_range
     assert lo <= 0.1 and hi >= 2.0
     inside = (ecoflex.strain >= lo) & (ecoflex.strain <= hi)
@@ -90,6 +97,31 @@ def test_ogden_fit_of_ecoflex(ecoflex):
     assert result.initial_shear_modulus_mpa > 0
 
 
+def test_the_default_fit_holds_a_negative_term_at_zero_and_a_design_takes_it(tmp_path, capsys):
+    """Up to 100 % strain the unconstrained Yeoh fit of the Ecoflex test has a negative C30, which a
+    design refuses (exit 2 naming the field); the default fit keeps C20, C30 >= 0, says which term it
+    held and what the unconstrained fit gave, and its constants load as a lab's rubber."""
+    free = fit_hyperelastic(read_tensile(ECOFLEX_CSV), "yeoh", nonnegative=False, max_strain=1.0)
+    assert free.constants["c30_mpa"] < 0 and free.unconstrained is None
+    out = tmp_path / "fit.json"
+    assert main(["material", "fit", str(ECOFLEX_CSV), "--max-strain", "1", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["c30_mpa"] == 0.0 and doc["c20_mpa"] > 0 and doc["held_at_zero"] == ["c30_mpa"]
+    assert doc["unconstrained"]["c30_mpa"] == pytest.approx(free.constants["c30_mpa"], rel=1e-6)
+    assert doc["r2"] >= 0.98 and "c30_mpa held at 0" in capsys.readouterr().out
+    sets = [f"material.{k}={doc[k]!r}" for k in ("c10_mpa", "c20_mpa", "c30_mpa")]
+    rubber = ["material.name=Ecoflex 00-30 (lab fit)", "material.density_g_per_ml=1.07", "material.mix_ratio_a_to_b=1"]
+    design = load_design("spn", [*rubber, *sets])
+    assert design.material.c30_mpa == 0.0 and design.material.c20_mpa == pytest.approx(doc["c20_mpa"])
+    assert main(["material", "fit", str(ECOFLEX_CSV), "--max-strain", "1", "--allow-negative", "--json", str(out)]) == 0
+    negative = json.loads(out.read_text())
+    assert negative["c30_mpa"] == pytest.approx(free.constants["c30_mpa"], rel=1e-6) and "held_at_zero" not in negative
+    sets = [f"material.{k}={negative[k]!r}" for k in ("c10_mpa", "c20_mpa", "c30_mpa")]
+    assert main(["build", "spn", "--out", str(tmp_path / "b"), "--no-fem", *[a for s in [*rubber, *sets]
+                                                                              for a in ("--set", s)]]) == 2
+    assert "material.c30_mpa" in capsys.readouterr().err
+
+
 # --- synthetic data: known constants come back ---------------------------------------------------
 
 def test_yeoh_recovers_known_constants():
@@ -105,7 +137,7 @@ def test_yeoh_recovers_known_constants():
 @given(c10=st.floats(0.005, 0.5), c20=st.floats(-0.002, 0.05), c30=st.floats(0.0, 0.005))
 def test_yeoh_recovery_over_the_constant_space(c10, c20, c30):
     stress = yeoh_stress(STRAIN, c10, c20, c30)
-    result = fit_hyperelastic(_synthetic(stress), "yeoh")
+    result = fit_hyperelastic(_synthetic(stress), "yeoh", nonnegative=False)  # the unconstrained fit
     assert result.stress(STRAIN) == pytest.approx(stress, rel=1e-4, abs=1e-9)
     assert result.constants["c10_mpa"] == pytest.approx(c10, rel=0.01)
 
@@ -276,7 +308,7 @@ def test_the_published_file_fits_the_library_constants(name, tmp_path):
     (0.09 % on C10, 0.23 % on C20); Ecoflex 00-30 agrees to 0.04 %."""
     file, _, material, max_strain = PUBLISHED[name]
     out = tmp_path / "fit.json"
-    code = main(["-q", "material", "fit", str(DATA / file), "--nonnegative", "--max-strain", str(max_strain),
+    code = main(["-q", "material", "fit", str(DATA / file), "--max-strain", str(max_strain),
                  "--json", str(out)])
     assert code == 0
     doc, lib = json.loads(out.read_text()), get_material(material)

@@ -27,8 +27,9 @@ def add_args(parser) -> None:
                      help="write the fit as JSON (the plot goes beside it); - for standard output")
     fit.add_argument("--max-strain", type=float, metavar="E",
                      help="fit only the points up to this engineering strain (e.g. what the actuator's walls see)")
-    fit.add_argument("--nonnegative", action="store_true",
-                     help="Yeoh: keep C20 and C30 >= 0, as a design's [material] section requires")
+    fit.add_argument("--allow-negative", dest="nonnegative", action="store_false",
+                     help="Yeoh: let C20 and C30 go negative (by default they are kept >= 0, as a design's "
+                     "[material] section requires; a term held at 0 is named with the unconstrained value)")
     cols = fit.add_argument_group("columns (default: found by name; NAME is a header name or a 1-based position)")
     cols.add_argument("--strain-column", metavar="NAME", help="engineering strain, or a true strain column")
     cols.add_argument("--stress-column", metavar="NAME", help="engineering (nominal) or true stress")
@@ -47,7 +48,7 @@ def add_args(parser) -> None:
     size.add_argument("--area-mm2", type=float, metavar="A0", help="initial cross-section")
     size.add_argument("--width-mm", type=float, metavar="W", help="width (with --thickness-mm, instead of --area-mm2)")
     size.add_argument("--thickness-mm", type=float, metavar="T", help="thickness")
-    fit.set_defaults(handler=run_fit)
+    fit.set_defaults(handler=run_fit, nonnegative=True)
     listing = actions.add_parser("list", parents=[output_flags()], help="list the material library",
                                  description="List the material library.")
     listing.set_defaults(handler=run_list)

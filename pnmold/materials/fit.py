@@ -40,6 +40,8 @@ FLOOR_FRACTION = 0.05
 #: a pull-to-failure test has failed at the first point whose stress falls more than this
 #: fraction of the peak stress below the highest stress seen so far
 FAILURE_DROP = 0.10
+#: a fit whose valid range starts above this strain misses the strains an actuator's walls see first
+SMALL_STRAIN = 0.5
 
 __all__ = ["MODELS", "FitResult", "Specimen", "TensileColumns", "TensileData", "fit_command", "fit_hyperelastic",
            "read_tensile"]
@@ -80,6 +82,14 @@ class FitResult:
     max_strain: float | None = None
     plot: str | None = None
     read: dict[str, str] | None = None
+    #: Yeoh with the higher-order terms kept >= 0 (the default): the unconstrained fit's constants when
+    #: it had a negative term, which the design's rules refuse (see :func:`fit_hyperelastic`)
+    unconstrained: dict[str, float] | None = None
+
+    @property
+    def held_at_zero(self) -> tuple[str, ...]:
+        """The higher-order terms held at 0 because the unconstrained fit made them negative."""
+        return tuple(k for k, v in (self.unconstrained or {}).items() if k != "c10_mpa" and v < 0)
 
     def fitted(self, data: TensileData) -> np.ndarray:
         """Mask of the points of ``data`` that this fit used (before failure, up to ``max_strain``)."""
@@ -109,6 +119,9 @@ class FitResult:
             out["plot"] = self.plot
         if self.read:
             out["read"] = dict(self.read)
+        if self.unconstrained:
+            out["held_at_zero"] = list(self.held_at_zero)
+            out["unconstrained"] = dict(self.unconstrained)
         return out
 
     def summary(self) -> str:
@@ -116,7 +129,16 @@ class FitResult:
         consts = ", ".join(f"{k} = {v:.4g}" for k, v in self.constants.items())
         rng = (f"strain {self.strain_range[0]:.3g} to {self.strain_range[1]:.3g}" if self.strain_range
                else "no strain range meets the tolerance")
-        return f"{self.model}: {consts}; R2 = {self.r2:.5f}, RMSE = {self.rmse_mpa:.3g} MPa; holds over {rng}"
+        line = f"{self.model}: {consts}; R2 = {self.r2:.5f}, RMSE = {self.rmse_mpa:.3g} MPa; holds over {rng}"
+        if self.held_at_zero:
+            free = ", ".join(f"{k} = {v:.4g}" for k, v in self.unconstrained.items())
+            line += (f"; {' and '.join(self.held_at_zero)} held at 0, as a design's [material] requires (a negative "
+                     f"term softens the rubber past the fitted strains and can lose stability; unconstrained, "
+                     f"--allow-negative: {free})")
+            if self.strain_range is None or self.strain_range[0] > SMALL_STRAIN:
+                line += ("; held so, it does not hold at small strains: fit over the strains the actuator's walls "
+                         "see (--max-strain, e.g. 3)")
+        return line
 
 
 def _before_failure(data: TensileData) -> int:
@@ -177,8 +199,9 @@ def _fit_yeoh(e: np.ndarray, s: np.ndarray, order: int, nonnegative: bool) -> di
     guess = np.clip(guess, lo + 1e-12, np.inf)
     sol = least_squares(lambda x: a @ x - s, guess, bounds=(lo, np.inf), method="trf",
                         x_scale="jac", ftol=1e-15, xtol=1e-15, gtol=1e-15)
+    x = np.where((lo == 0.0) & (sol.x <= 1e-12 * np.abs(sol.x).max()), 0.0, sol.x)  # a term on its bound is 0
     names = ("c10_mpa", "c20_mpa", "c30_mpa")[:order]
-    return {n: float(v) for n, v in zip(names, sol.x / scale, strict=True)}
+    return {n: float(v) for n, v in zip(names, x / scale, strict=True)}
 
 
 def _fit_ogden(e: np.ndarray, s: np.ndarray, terms: int) -> dict[str, float]:
@@ -213,7 +236,7 @@ def _fit_ogden(e: np.ndarray, s: np.ndarray, terms: int) -> dict[str, float]:
     return out
 
 
-def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, nonnegative: bool = False,
+def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, nonnegative: bool = True,
                      max_strain: float | None = None) -> FitResult:
     """Fit an incompressible hyperelastic model to uniaxial engineering stress-strain data.
 
@@ -222,7 +245,11 @@ def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, 
     data : the test (see :func:`read_tensile`); points after failure are dropped.
     model : ``"yeoh"`` (C10 > 0, C20 and C30 free), ``"neo-hookean"`` or ``"ogden"``.
     terms : number of Ogden terms (1 or 2).
-    nonnegative : Yeoh only: also keep C20, C30 >= 0 (as the design's ``[material]`` rules require).
+    nonnegative : Yeoh only: also keep C20, C30 >= 0 (the default), as the design's ``[material]`` rules
+        require: a negative higher-order term makes the rubber soften past the strains it was fitted
+        over, and the FE's Newton then meets a material that loses stability (Drucker) at large
+        stretch. When the unconstrained fit has a negative term, the result keeps it in
+        ``unconstrained`` and names the held terms; ``False`` returns the unconstrained fit.
     max_strain : fit only the points up to this strain (e.g. the strains an actuator's walls reach).
     """
     model = model.lower().replace("_", "-")
@@ -238,15 +265,21 @@ def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, 
         e, s = e[e <= max_strain], s[e <= max_strain]
     if len(e) < _MIN_POINTS:
         raise UsageError(f"{data.path}: only {len(e)} points before failure; a fit needs at least {_MIN_POINTS}")
+    unconstrained = None
     if model == "ogden":
         constants = _fit_ogden(e, s, terms)
         mu0 = sum(v for k, v in constants.items() if k.startswith("mu"))
     else:
-        constants = _fit_yeoh(e, s, 3 if model == "yeoh" else 1, nonnegative)
+        order = 3 if model == "yeoh" else 1
+        constants = _fit_yeoh(e, s, order, nonnegative)
         mu0 = 2.0 * constants["c10_mpa"]
+        if nonnegative and order > 1:
+            free = _fit_yeoh(e, s, order, False)
+            unconstrained = free if any(v < 0 for k, v in free.items() if k != "c10_mpa") else None
     result = FitResult(model=model, constants=constants, r2=math.nan, rmse_mpa=math.nan, strain_range=None,
                        n_points=len(e), n_dropped_after_failure=len(data.strain) - keep,
-                       initial_shear_modulus_mpa=float(mu0), source=data.path, max_strain=max_strain)
+                       initial_shear_modulus_mpa=float(mu0), source=data.path, max_strain=max_strain,
+                       unconstrained=unconstrained)
     predicted = result.stress(e)
     r2, rmse = _goodness(s, predicted)
     rng = valid_strain_range(e, s, predicted)
@@ -256,7 +289,7 @@ def fit_hyperelastic(data: TensileData, model: str = "yeoh", *, terms: int = 2, 
 
 def fit_command(path: str | Path, model: str = "yeoh", json_path: str | Path | None = None,
                 plot_path: str | Path | None = None, columns: TensileColumns | None = None,
-                specimen: Specimen | None = None, *, nonnegative: bool = False,
+                specimen: Specimen | None = None, *, nonnegative: bool = True,
                 max_strain: float | None = None) -> FitResult:
     """``pnmold material fit``: read (:func:`read_tensile` with ``columns`` and ``specimen``), fit
     (:func:`fit_hyperelastic` with ``nonnegative`` and ``max_strain``), plot and (optionally)
