@@ -10,8 +10,8 @@ recordings with the metadata that says how they were measured: the bend angle ov
 (Table 1 of the paper, the rest assumed and stated there).
 
 Prints: the design used, the calibrated values, what the diagnosis names on the bending and the
-P-V recording (and on both together), the RMS bend-angle error after calibration as a share of
-the measured range, and the dead volume against what Boyle's law alone says of the rig's air
+P-V recording (and on both together, and on the blocked-force recording of the same segment), the
+RMS bend-angle error after calibration as a share of the measured range, and the dead volume against what Boyle's law alone says of the rig's air
 column from the first increments (where the segment has barely bent, nearly all the piston's
 volume compresses air: V_air ~ dV (p_atm + p) / p, an upper bound).
 
@@ -38,6 +38,8 @@ from pnmold.recording import write_recording  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
 BENDING = DATA / "marchese2015_ribbed_bending.csv"
+#: the blocked tip force, measured with another piston (a plate on a load cell at the tip)
+FORCE = DATA / "marchese2015_ribbed_blocked_force.csv"
 DESIGN = ROOT / "benchmarks" / "designs" / "marchese2015-ribbed.toml"
 #: the paper's bending length: bend angle = curvature x 0.043 m (the data file's header)
 BENDING_LENGTH_MM = 43.0
@@ -69,6 +71,10 @@ def write_recordings(out: Path) -> dict[str, Path]:
                     {**common, "rig": "volume", "medium": "air",
                      "pressure_accuracy_kpa": f"{PRESSURE_ACCURACY_KPA:.4g}",
                      "volume_accuracy_ml": f"{VOLUME_ACCURACY_ML:.4g}"})
+    force = read_rows(FORCE)
+    paths["force"] = out / "force.csv"
+    write_recording(paths["force"], "force", {"pressure_kpa": force["pressure_kpa"], "force_n": force["tip_force_n"]},
+                    common)
     return paths
 
 
@@ -134,7 +140,8 @@ def main() -> None:
     print(f"rig: the first increments imply an air column of at most {', '.join(f'{b:.1f}' for b in bound)} mL "
           "(Boyle's law, all the piston's volume into air)")
     measured = read_rows(BENDING)["bend_angle_deg"]
-    runs = {"bending": [paths["bending"]], "pv": [paths["pv"]], "both": [paths["bending"], paths["pv"]]}
+    runs = {"bending": [paths["bending"]], "pv": [paths["pv"]], "both": [paths["bending"], paths["pv"]],
+            "force": [paths["force"]]}
     docs = {k: diagnose(args.design, v, args.out / f"{k}.json", args.model_error) for k, v in runs.items()}
     for label, doc in docs.items():
         report(label, doc)
