@@ -38,8 +38,9 @@ def diagnosed(tmp_path_factory):
     paths = REAL.write_recordings(out)
     docs = {}
     for kind in ("bending", "pv", "force"):
-        diagnose_recordings(design, [paths[kind]], json_path=out / f"{kind}.json")
+        diag = diagnose_recordings(design, [paths[kind]], json_path=out / f"{kind}.json")
         docs[kind] = json.loads((out / f"{kind}.json").read_text())
+        docs[f"{kind}-diagnosis"] = diag
     return docs
 
 
@@ -75,3 +76,20 @@ def test_the_blocked_force_past_the_models_maximum_is_diagnosed_and_calibrates_t
     scales = [d["calibration"]["final"]["modulus_scale"] for d in (force, bend)]
     assert abs(scales[0] - scales[1]) < 0.15 * scales[1]  # two rigs, one rubber
     assert force["fit"]["rmse_after"] < 0.25 * 0.886  # of the largest recorded force
+
+
+def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past_the_maximum(diagnosed):
+    """The residual panel is measured minus predicted (what the upper panel shows), not the fit's
+    score, which also counts the pressure a row past the model's maximum asks for; such rows are
+    drawn as crosses."""
+    from pnmold.diagnose.plots import fit_figure
+
+    diag = diagnosed["force-diagnosis"]
+    series = diag.data.series[0]
+    pred = diag.decision.baseline.fit.predictions[series.recording]
+    past = np.asarray(pred["pressure_excess"])[series.rows] > 0
+    assert past.sum() == 2
+    residual = series.y - np.asarray(pred["force_n"])[series.rows]
+    lines = {ln.get_label(): ln for ln in fit_figure(diag).axes[1].get_lines()}
+    np.testing.assert_allclose(lines["baseline"].get_ydata(), residual[~past])
+    np.testing.assert_allclose(lines["baseline, past the model's pressure maximum"].get_ydata(), residual[past])

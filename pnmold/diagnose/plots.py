@@ -8,8 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .core import Diagnosis, by_series
-from .fitting import zscores
+from .core import Diagnosis
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -19,6 +18,18 @@ def _x(rec) -> tuple[np.ndarray, str]:
     if rec.kind == "step":
         return np.asarray(rec.columns["time_s"], float), "time (s)"
     return np.asarray(rec.columns["pressure_kpa"], float), "pressure (kPa)"
+
+
+def _residuals(panel, x: np.ndarray, s, pred: dict[str, np.ndarray], color: str, label: str) -> None:
+    """Measured minus predicted, in the observable's units. A row past the model's pressure maximum
+    (its prediction the state at the maximum; the fit also counts the pressure it cannot hold, which
+    is not a residual of this observable) is drawn as a cross."""
+    r = s.y - np.asarray(pred[s.observable], float)[s.rows]
+    past = np.asarray(pred.get("pressure_excess", np.zeros(len(pred[s.observable]))), float)[s.rows] > 0
+    panel.plot(x[~past], r[~past], ".", ms=3, color=color, label=label)
+    if past.any():
+        panel.plot(x[past], r[past], "x", ms=4, color=color,
+                   label=f"{label}, past the model's pressure maximum")
 
 
 def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = None) -> Figure:
@@ -32,8 +43,6 @@ def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = Non
     data, dec = diag.data, diag.decision
     base = dec.baseline.fit.predictions
     final = dec.final.fit.predictions
-    zb = by_series(data, zscores(data, base))
-    zf = by_series(data, zscores(data, final))
     n = len(data.series)
     fig, axes = figure_axes(ax, (2, n), (4.2 * n, 6.2), sharex="col", gridspec_kw={"height_ratios": [2, 1]})
     label = dec.final.label
@@ -47,9 +56,9 @@ def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = Non
             top.plot(x, final[s.recording][s.observable], "-", color="tab:blue", lw=1.2, label=f"with {label}")
         top.set_title(f"{Path(rec.path).name}: {s.observable}", fontsize=9)
         top.set_ylabel(s.observable)
-        bottom.plot(x[s.rows], zb[j] * s.sigma, ".", ms=3, color="tab:red", label="baseline")
+        _residuals(bottom, x[s.rows], s, base[s.recording], "tab:red", "baseline")
         if dec.accepted:
-            bottom.plot(x[s.rows], zf[j] * s.sigma, ".", ms=3, color="tab:blue", label="improved")
+            _residuals(bottom, x[s.rows], s, final[s.recording], "tab:blue", "improved")
         bottom.axhline(0, color="0.5", lw=0.8)
         bottom.fill_between([x.min(), x.max()], -2 * s.level, 2 * s.level, color="0.85", label="2 x noise")
         for m in diag.doc["mismatch"]:
