@@ -11,9 +11,10 @@ recordings with the metadata that says how they were measured: the bend angle ov
 
 Prints: the design used, the calibrated values, what the diagnosis names on the bending and the
 P-V recording (and on both together, and on the blocked-force recording of the same segment), the
-RMS bend-angle error after calibration as a share of the measured range, and the dead volume against what Boyle's law alone says of the rig's air
-column from the first increments (where the segment has barely bent, nearly all the piston's
-volume compresses air: V_air ~ dV (p_atm + p) / p, an upper bound).
+RMS bend-angle error after calibration as a share of the measured range, and the dead volume
+against what Boyle's law alone says of the rig's air column from the first increments (where the
+segment has barely bent, nearly all the piston's volume compresses air: V_air ~ dV (p_atm + p) / p,
+an upper bound).
 
     .venv/bin/python benchmarks/diagnose_real.py [--out out/real] [--design FILE] [--model-error SHARE]
 """
