@@ -31,8 +31,7 @@ PARTS = CAST_PARTS + MOLDS
 #: seen from below (turned over): the top layer's open cavities, the exterior mold's inside
 UPSIDE_DOWN = frozenset({"top_layer"} | {m for m, use in USES.items() if use.print_up[2] < 0})
 COLOURS = {"actuator": "#7fb8d8", "top_layer": "#8cc4e0", "bottom_layer": "#6fa8c8", "passive_layer": "#9ccfe6",
-           "paper": "#efe9d2",
-           "mold_interior": "#d9534f", "mold_exterior": "#6b9be8", "mold_bottom": "#5cb85c"}
+           "paper": "#efe9d2", "mold_interior": "#d9534f", "mold_exterior": "#6b9be8", "mold_bottom": "#5cb85c"}
 PICTURE_PX = (760, 420)
 #: the interactive view keeps at most this many triangles per part (decimated above)
 MAX_VIEWER_FACES = 60_000
