@@ -75,7 +75,10 @@ CATALOGUE: tuple[Effect, ...] = (
             "C20 + 0.04 MPa (the characterisation's variant), separately for the bend and the volume, scaled "
             "by the added Yeoh slope dC20 + 1.5 dC30 I1 at the representative stretch (equibiaxial, 1 + 0.12 "
             "x the FE's peak strain); the hinge compliance is divided by the bend's factor. Without the FE "
-            "variant: the ratio of the Yeoh slopes dW/dI1 there",
+            "variant: the ratio of the Yeoh slopes dW/dI1 there. A design whose free run ends at a pressure "
+            "maximum, with recordings past it: C30 read off the FE's own runs with C30 + 0.001, 0.0025 and 0.006 "
+            "x C10 (the stiffening ladder, which goes on past that maximum), interpolated at the same share of "
+            "each run's final bend; the diagnosis then fits strain stiffening by its C30",
         fe="material.c20_mpa += value, material.c30_mpa += c30_mpa",
         source="bounds: Yeoh C20 of silicone fits 0-0.02 MPa (" + SI + ": Elastosil C20 = 0.02 MPa; "
                "pnmold library fits); up to 5x that assumed",

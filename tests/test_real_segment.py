@@ -26,21 +26,37 @@ pytestmark = [pytest.mark.slow,
                                  reason=f"the real segment's data are read from {REAL.DATA} (not in the repository)")]
 
 
+#: the FE's characterisations of both designs of the segment (free run, probe, variants and the stiffening
+#: ladder, as ``benchmarks/diagnose_real.py`` makes them: minutes of FE each), read as a cache
+STORED = ROOT / "tests" / "data" / "characterisations"
+TWO_SIDED = ROOT / "benchmarks" / "designs" / "marchese2015-ribbed-two-sided.toml"
+
+
 @pytest.fixture(scope="module")
 def diagnosed(tmp_path_factory):
-    """The segment's design, its two recordings and the diagnosis of each (the first characterises the
-    design in the FE, about a minute, or reads the user's cache)."""
+    """The segment's two designs (one side; both sides as built), its recordings and the diagnoses
+    (the FE's characterisations from ``tests/data``, so no FE runs here)."""
+    import shutil
+
     from pnmold.design import load_design
     from pnmold.diagnose.run import diagnose_recordings
 
     out = tmp_path_factory.mktemp("real")
-    design = load_design(str(REAL.DESIGN))
+    cache = out / "fe"
+    shutil.copytree(STORED, cache)
     paths = REAL.write_recordings(out)
     docs = {}
-    for kind in ("bending", "pv", "force"):
-        diag = diagnose_recordings(design, [paths[kind]], json_path=out / f"{kind}.json")
-        docs[kind] = json.loads((out / f"{kind}.json").read_text())
-        docs[f"{kind}-diagnosis"] = diag
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PNMOLD_CACHE", str(cache))
+        runs = [(REAL.DESIGN, kind, [paths[kind]]) for kind in ("bending", "pv", "force")]
+        runs += [(TWO_SIDED, "two-sided bending", [paths["bending"]]),
+                 (TWO_SIDED, "two-sided both", [paths["bending"], paths["pv"]])]
+        for design, kind, recordings in runs:
+            path = out / f"{kind.replace(' ', '-')}.json"
+            diag = diagnose_recordings(load_design(str(design)), recordings, json_path=path)
+            docs[kind] = json.loads(path.read_text())
+            docs[f"{kind}-diagnosis"] = diag
+    assert sorted(p.name for p in cache.iterdir()) == sorted(p.name for p in STORED.iterdir())  # no FE ran
     return docs
 
 
@@ -93,3 +109,27 @@ def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past
     lines = {ln.get_label(): ln for ln in fit_figure(diag).axes[1].get_lines()}
     np.testing.assert_allclose(lines["baseline"].get_ydata(), residual[~past])
     np.testing.assert_allclose(lines["baseline, past the model's pressure maximum"].get_ydata(), residual[past])
+
+
+def test_the_segment_as_built_names_its_rubbers_large_strain_stiffening(diagnosed):
+    """Both sides modelled, the bending curve past the model's pressure maximum is read off the FE's runs
+    with a stiffer rubber at large strain (the stiffening ladder): strain stiffening is named by its Yeoh
+    C30, inside the ladder and clearly above zero, and halves the held-out error; with the P-V curve
+    beside it the piston's air column is named too. The one-sided design, which leaves a side out, is
+    not mended by it."""
+    bend = diagnosed["two-sided bending"]
+    named = {m["effect"]: m for m in bend["missing_physics"]}
+    assert list(named) == ["strain_stiffening"], bend["summary"]
+    c30 = named["strain_stiffening"]["parameters"]["strain_stiffening.c30_mpa"]
+    spread = named["strain_stiffening"]["uncertainty"]["strain_stiffening.c30_mpa"]
+    top = diagnosed["two-sided bending-diagnosis"].decision.final.fit.hypothesis.parameters[-1].high
+    assert 2 * spread < c30 < top
+    assert bend["fit"]["heldout_rmse_after"] < 0.5 * bend["fit"]["heldout_rmse_before"]
+    assert REAL.bend_rms_share(bend, REAL.read_rows(REAL.BENDING)["bend_angle_deg"]) < 0.10
+    assert "strain_stiffening" in bend["summary"] and "Yeoh" in bend["summary"]
+    both = diagnosed["two-sided both"]
+    assert {m["effect"] for m in both["missing_physics"]} == {"dead_volume", "strain_stiffening"}
+    dead = next(m for m in both["missing_physics"] if m["effect"] == "dead_volume")
+    assert dead["rig_check"]["consistent"]
+    assert both["fit"]["heldout_rmse_after"] < 0.2 * both["fit"]["heldout_rmse_before"]
+    assert not diagnosed["bending"]["missing_physics"]  # one side only: the misfit is the missing side

@@ -31,11 +31,16 @@ def _ending_at(c: Characterisation, steps: int, reason: str) -> Characterisation
     return replace(c, **cut, full_bend_pressure_kpa=None, reason=reason, variants={})
 
 
+def _steps_below(c: Characterisation, kpa: float) -> tuple[int, float]:
+    """How many of ``c``'s steps lie below ``kpa``, and the last one's pressure."""
+    steps = int(np.searchsorted(c.pressure_kpa, kpa))
+    return steps, float(c.pressure_kpa[steps - 1])
+
+
 @pytest.fixture(scope="module")
 def models():
     design, full = _bundled_fpn()
-    steps = int(np.searchsorted(full.pressure_kpa, 30.0))
-    top = float(full.pressure_kpa[steps - 1])
+    steps, top = _steps_below(full, 30.0)
     maximum = _ending_at(full, steps, f"pressure maximum of {top:.4g} kPa at 200.0 deg bend and 9 mL: past it ...")
     limit = _ending_at(full, steps, f"bend angle reached 200 deg at the pressure limit {top:.4g} kPa")
     return ReducedModel(design, maximum), ReducedModel(design, limit), top

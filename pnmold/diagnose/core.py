@@ -23,7 +23,7 @@ from .calibrate import (
     reach_scale,
 )
 from .data import MODEL_FORM_SHARE, PRESSURE_FORM_SHARE, DataSet, build_dataset
-from .decide import DCHI2_MIN, Candidate, Decision, decide, excess_sigma
+from .decide import DCHI2_MIN, Candidate, Decision, decide, excess_sigma, ladder_parameter
 from .fitting import Fitter, Forward, zscores
 from .locate import locate
 
@@ -70,7 +70,7 @@ def _full_z(fitter: Fitter, c: Candidate) -> np.ndarray:
 def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forward: Forward,
              effects: list, *, seed: int = 0, reach: dict[str, Any] | None = None,
              model_form_share: float = MODEL_FORM_SHARE,
-             pressure_form_share: float = PRESSURE_FORM_SHARE) -> Diagnosis:
+             pressure_form_share: float = PRESSURE_FORM_SHARE, stiffening_top_mpa: float = 0.0) -> Diagnosis:
     """Calibrate, locate, rank, fit, accept; ``effects`` are catalogue entries to consider
     (those whose kinds include a recorded kind). ``reach``: how far the model's FE
     characterisation went (``max_pressure_kpa``, ``full_bend_pressure_kpa``, ``reason``), to say
@@ -78,7 +78,9 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     ``model_form_share``: the model's own form error as a share of each observable's range, the
     noise floor of a recording without repeated cycles (:data:`pnmold.diagnose.data.MODEL_FORM_SHARE`), and
     ``pressure_form_share`` its error in pressure, carried through the model's slope on quasi-static
-    recordings (:data:`pnmold.diagnose.data.PRESSURE_FORM_SHARE`)."""
+    recordings (:data:`pnmold.diagnose.data.PRESSURE_FORM_SHARE`). ``stiffening_top_mpa`` > 0: the forward's
+    model has a stiffening ladder up to that Yeoh C30 (:func:`pnmold.diagnose.model.stiffening_top`), and
+    ``strain_stiffening`` is fitted by its C30 on it."""
     t0 = time.perf_counter()
     kinds = {r.kind for r in recordings}
     effects = [e for e in effects if kinds & set(e.kinds)]
@@ -90,7 +92,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
                              pressure_form_share)
         fitter = Fitter(data, forward)
         calibration = calibration_parameters(scale, frame)
-        decision = decide(fitter, effects, seed=seed, calibration=calibration)
+        decision = decide(fitter, effects, seed=seed, calibration=calibration,
+                          main=ladder_parameter(stiffening_top_mpa))
         pinned = modulus_pinned(decision, calibration)  # not a batch of rubber, and no effect frees it
         past = _past_maximum(decision.final.fit.predictions, data)  # the rubber cannot reach the recordings
         if check is None and (pinned or past or baseline_pinned(decision, calibration)):
@@ -137,8 +140,12 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         if name == "dead_volume":
             rig_notes += _check_rig(missing[-1], recordings, final.fit.predictions)
     excess = excess_sigma(final.heldout_chi2, final.heldout_z.size)
-    if decision.unexplained:
-        summary = explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects])
+    # where the final model still misses (the baseline's misfit is ``mismatch``)
+    left = locate(data, by_series(data, _full_z(fitter, final))) if decision.unexplained else []
+    if decision.unexplained:  # what was named still counts; what is left is said after it
+        summary = " ".join([*(m["explanation"] for m in missing),
+                            explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects],
+                                                left[0]["description"] if left else None)])
     elif not missing:
         summary = explain.nothing_missing(fit["heldout_rmse_after"], unit, excess)
     else:
@@ -157,6 +164,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         "noise": {s.name: s.level for s in data.series},
         "noise_parts": {s.name: {"measurement": s.measurement, "model_form": s.model_form} for s in data.series},
         "mismatch": mismatch,
+        "remaining_mismatch": left,
         "missing_physics": missing,
         "unexplained": bool(decision.unexplained),
         "fit": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in fit.items()},
@@ -266,7 +274,7 @@ def _candidate_entry(c: Candidate) -> dict[str, Any]:
             "heldout_chi2_gain": round(c.gain, 1), "heldout_gain_t": round(c.t_gain, 2),
             "excess_removed": round(c.excess_share, 3),
             "bootstrap_wins": round(c.stability, 3), "plausible": c.plausible,
-            "parameters": {k: round(v, 6) for k, v in c.fit.values.items()}, "notes": c.notes}
+            "parameters": {k: float(f"{v:.6g}") for k, v in c.fit.values.items()}, "notes": c.notes}
 
 
 def _alternatives(decision: Decision) -> list[dict[str, str]]:

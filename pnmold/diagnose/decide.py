@@ -46,6 +46,19 @@ FIT_EXTRAS = {"viscoelasticity": ("tau_s",), "self_contact": ("gap_scale",)}
 #: start values of those extras (the misfit is flat in an effect's strength until its onset
 #: or time scale is near the data's)
 EXTRA_STARTS = {"viscoelasticity.tau_s": (0.3, 2.0, 12.0), "self_contact.gap_scale": (0.3, 0.6, 1.0, 2.0)}
+#: a main parameter that stands in for an effect's own (``main`` of :func:`decide`): strain stiffening read off
+#: the stiffening ladder by Yeoh C30 (recordings past the nominal's pressure maximum, see ``ladder_parameter``)
+LADDER_KEY = "strain_stiffening.c30_mpa"
+
+
+def ladder_parameter(top_mpa: float) -> dict[str, Parameter]:
+    """``main`` for :func:`decide` when the model has a stiffening ladder up to ``top_mpa`` (else none)."""
+    return {"strain_stiffening": Parameter(LADDER_KEY, 0.1 * top_mpa, 0.0, top_mpa)} if top_mpa > 0 else {}
+
+
+def _effect_of(key: str) -> str | None:
+    """The effect whose strength ``key`` is (its main parameter), else None (a calibration, an extra)."""
+    return key if "." not in key else ("strain_stiffening" if key == LADDER_KEY else None)
 
 
 @dataclass
@@ -81,8 +94,11 @@ def excess_sigma(chi2: float, n: int) -> float:
     return (chi2 - n) / np.sqrt(2.0 * max(n, 1))
 
 
-def effect_parameters(effect) -> tuple[Parameter, ...]:
-    """The fitted parameters of a catalogue effect: its main one and its extras."""
+def effect_parameters(effect, main: dict[str, Parameter] | None = None) -> tuple[Parameter, ...]:
+    """The fitted parameters of a catalogue effect: its main one and its extras (``main``: effect -> the
+    parameter fitted instead, alone)."""
+    if main and effect.name in main:
+        return (main[effect.name],)
     lo, hi = effect.bounds
     params = [Parameter(effect.name, lo + 0.1 * (hi - lo), lo, hi)]
     for extra in effect.extra:
@@ -93,11 +109,12 @@ def effect_parameters(effect) -> tuple[Parameter, ...]:
     return tuple(params)
 
 
-def hypothesis(effects: list, calibration: tuple[Parameter, ...] | None = None) -> Hypothesis:
+def hypothesis(effects: list, calibration: tuple[Parameter, ...] | None = None,
+               main: dict[str, Parameter] | None = None) -> Hypothesis:
     """The nominal model (``calibration``: its recalibrated parameters) plus ``effects``."""
     params = list(calibration if calibration is not None else calibration_parameters())
     for e in effects:
-        params.extend(effect_parameters(e))
+        params.extend(effect_parameters(e, main))
     return Hypothesis(tuple(e.name for e in effects), tuple(params))
 
 
@@ -118,7 +135,7 @@ def starts_for(h: Hypothesis, base: np.ndarray | None = None) -> list[np.ndarray
     for i, p in enumerate(h.parameters):
         if base is not None and i < base.size or p.calibration:
             continue
-        if "." not in p.key:
+        if _effect_of(p.key) is not None:
             grids.append((i, [p.low + share * (p.high - p.low) for share in STARTS]))
         elif p.key in EXTRA_STARTS:
             grids.append((i, list(EXTRA_STARTS[p.key])))
@@ -146,7 +163,7 @@ def check_plausible(cand: Candidate, effect_names: tuple[str, ...]) -> None:
     their fold spread and the effect's resolution)."""
     unc = cand.uncertainty()
     for p, v in zip(cand.fit.hypothesis.parameters, cand.fit.x, strict=True):
-        if p.calibration or p.key not in effect_names:
+        if p.calibration or _effect_of(p.key) not in effect_names:
             continue
         span = p.high - p.low
         if v >= p.high - 0.01 * span:
@@ -180,15 +197,17 @@ class Decision:
     unexplained: bool
 
 
-def decide(fitter: Fitter, effects: list, seed: int = 0, calibration: tuple[Parameter, ...] | None = None
-           ) -> Decision:
+def decide(fitter: Fitter, effects: list, seed: int = 0, calibration: tuple[Parameter, ...] | None = None,
+           main: dict[str, Parameter] | None = None) -> Decision:
     """The full search over ``effects`` (catalogue entries), the nominal model recalibrated with
-    ``calibration`` (default: the modulus within its window)."""
+    ``calibration`` (default: the modulus within its window); ``main``: effect -> the parameter fitted
+    instead of its own (:func:`ladder_parameter`)."""
     calibration = calibration if calibration is not None else calibration_parameters()
     rng = np.random.default_rng(seed)
     blocks = fitter.data.blocks
     base = judge(fitter, hypothesis([], calibration), [np.array([p.start for p in calibration])])
-    singles = [judge(fitter, h, starts_for(h, base.fit.x)) for h in (hypothesis([e], calibration) for e in effects)]
+    singles = [judge(fitter, h, starts_for(h, base.fit.x))
+               for h in (hypothesis([e], calibration, main) for e in effects)]
     for c in singles:
         compare(c, base, blocks)
         check_plausible(c, c.fit.hypothesis.effects)
@@ -201,7 +220,7 @@ def decide(fitter: Fitter, effects: list, seed: int = 0, calibration: tuple[Para
         if _acceptable(best):
             accepted.append(best)
             final = best
-            final = _try_pairs(fitter, best, effects, blocks, calibration) or final
+            final = _try_pairs(fitter, best, effects, blocks, calibration, main) or final
             if final is not best:
                 accepted.append(final)
     unexplained = excess_sigma(final.heldout_chi2, final.heldout_z.size) > EXCESS_SIGMA and (
@@ -220,7 +239,7 @@ def _acceptable(c: Candidate) -> bool:
 
 
 def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarray,
-               calibration: tuple[Parameter, ...]) -> Candidate | None:
+               calibration: tuple[Parameter, ...], main: dict[str, Parameter] | None) -> Candidate | None:
     """A second effect on top of ``first``, accepted by the same rules against ``first``."""
     if excess_sigma(first.heldout_chi2, first.heldout_z.size) <= EXCESS_SIGMA:
         return None
@@ -229,7 +248,7 @@ def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarr
     for e in effects:
         if e.name in named:
             continue
-        h = hypothesis([*[x for x in effects if x.name in named], e], calibration)
+        h = hypothesis([*[x for x in effects if x.name in named], e], calibration, main)
         c = judge(fitter, h, starts_for(h, first.fit.x))
         compare(c, first, blocks)
         check_plausible(c, h.effects)

@@ -19,25 +19,32 @@ SEPARATING_EXPERIMENT = {
 }
 
 
+def _digits(v: float) -> float:
+    """Six significant digits (a Yeoh C30 of 1e-5 MPa keeps its own)."""
+    return float(f"{float(v):.6g}")
+
+
 def effect_values(cand, effect) -> tuple[dict[str, float], dict[str, float]]:
     """The fitted parameters of ``effect`` in ``cand`` and their fold spread."""
     unc = cand.uncertainty()
     values, spread = {}, {}
     for key, v in cand.fit.values.items():
         if key == effect.name or key.startswith(effect.name + "."):
-            values[key] = round(float(v), 6)
-            spread[key] = round(float(unc[key]), 6)
+            values[key] = _digits(v)
+            spread[key] = _digits(unc[key])
     return values, spread
 
 
 def explanation(effect, values: dict[str, float], spread: dict[str, float], mismatch: list[dict],
                 rmse_before: float, rmse_after: float, unit: str) -> str:
-    main = values[effect.name]
+    key = effect.name if effect.name in values else next(iter(values))  # or the parameter fitted instead
+    main = values[key]
+    unit_of = effect.unit if key == effect.name else next(x[1] for x in effect.extra if key.endswith("." + x[0]))
     where = mismatch[0]["description"] if mismatch else "a small, spread-out misfit"
     return (f"The model left out {effect.description[0].lower() + effect.description[1:].rstrip('.')} "
             f"({effect.name}). What shows it: {where}; this is its fingerprint: "
             f"{effect.fingerprint[0].lower() + effect.fingerprint[1:].rstrip('.')}. "
-            f"With {effect.name} = {main:.3g} {effect.unit} (+- {spread[effect.name]:.2g}), the held-out "
+            f"With {key} = {main:.3g} {unit_of} (+- {spread[key]:.2g}), the held-out "
             f"error fell from {rmse_before:.3g} to {rmse_after:.3g} {unit}.")
 
 
@@ -117,12 +124,14 @@ def nothing_missing(rmse: float, unit: str, excess: float) -> str:
             f"(excess misfit {excess:.1f} standard deviations).")
 
 
-def unexplained(rmse: float, unit: str, excess: float, tried: list[str]) -> str:
-    return (f"Structure remains that no catalogued effect explains: the held-out error is {rmse:.3g} "
+def unexplained(rmse: float, unit: str, excess: float, tried: list[str], where: str | None = None) -> str:
+    """``where``: the strongest window the final model still misses (a ``remaining_mismatch`` entry's words)."""
+    return (f"Structure remains that no catalogued effect explains: the held-out error is still {rmse:.3g} "
             f"{unit}, {excess:.1f} standard deviations beyond the noise after trying "
-            f"{', '.join(tried)}. Look for a cause outside the catalogue: a design that is not the "
-            f"actuator as built (a wall, layer or side it leaves out, sizes read off a drawing: compare "
-            f"the part with design.toml), a leak, a torn wall, a mislabelled column.")
+            f"{', '.join(tried)}" + (f"; the final model still misses here: {where}" if where else "") +
+            ". Look for a cause outside the catalogue: a design that is not the "
+            "actuator as built (a wall, layer or side it leaves out, sizes read off a drawing: compare "
+            "the part with design.toml), a leak, a torn wall, a mislabelled column.")
 
 
 def rmse(values: np.ndarray) -> float:

@@ -9,7 +9,7 @@ from pnmold.design import Design
 
 from .core import Diagnosis, diagnose
 from .data import MODEL_FORM_SHARE
-from .model import diagnosis_effects, diagnosis_forward, read_all
+from .model import diagnosis_effects, diagnosis_forward, read_all, stiffening_top
 
 
 def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: int = 0,
@@ -28,8 +28,10 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     c = characterise(design, progress=progress)
     reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
              "reason": c.reason}
+    top = stiffening_top(design, recordings, progress)  # before the forward: its model reads the ladder
     diag = diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
-                    diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share)
+                    diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share,
+                    stiffening_top_mpa=top)
     if json_path:
         write_json_doc(diag, json_path)
     if report_dir:

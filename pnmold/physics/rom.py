@@ -38,8 +38,8 @@ from pnmold import effects as fx
 from pnmold.conventions import gravity_direction
 from pnmold.design import Design
 from pnmold.errors import DesignError, RodError, SolveError
-from pnmold.physics.characterisation import Characterisation, distinct_steps
-from pnmold.physics.characterise import characterise
+from pnmold.physics.characterisation import CURVES, Characterisation, distinct_steps
+from pnmold.physics.characterise import LADDER_EFFECT, characterise
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.protocol import Protocol
 from pnmold.physics.reading import FRAME, read_bend, read_tip, read_volume
@@ -122,11 +122,43 @@ class ReducedModel:
         stiff = c.variant_runs("strain_stiffening")
         if stiff:
             self.responses["strain_stiffening"] = responses(base, [(r["value"], r) for r in stiff], softening=False)
+        #: the stiffening ladder (:func:`pnmold.physics.characterise.stiffening_ladder`): the nominal law and the
+        #: FE's free runs with Yeoh C30 added, by C30; only where the free run ends at a pressure maximum
+        rungs = c.variant_runs(LADDER_EFFECT) if c.ends_at_pressure_maximum else []
+        self.ladder = [{**{k: getattr(c, k) for k in CURVES}, "value": 0.0}, *rungs] if rungs else []
+        self._laddered: dict[float, ReducedModel] = {}
 
     @classmethod
     def for_design(cls, design: Design, characterisation: Characterisation | None = None) -> ReducedModel:
         """The model of ``design``; without a characterisation, :func:`characterise` (cached)."""
         return cls(design, characterisation if characterisation is not None else characterise(design))
+
+    # -- the stiffening ladder ---------------------------------------------------------------------
+    @property
+    def ladder_top_mpa(self) -> float:
+        """The largest C30 the ladder holds (0 without a ladder)."""
+        return self.ladder[-1]["value"] if self.ladder else 0.0
+
+    def laddered(self, c30_mpa: float) -> ReducedModel:
+        """The model of the design with Yeoh C30 + ``c30_mpa``, from the ladder's two neighbouring runs.
+
+        Past the nominal's pressure maximum a factor on the nominal law cannot carry a stiffening (the
+        law ends there); the ladder's runs go on to their own limit points. Between two runs the curves
+        (pressure, tip, cavity volume, stretch) are interpolated linearly in C30 at the same share of each
+        run's final bend, so that limit point meets limit point; the bend's end is interpolated alike.
+        The rod's shape is the nominal's at the same bend (its last shape scaled beyond), the hinge
+        compliance the nominal's there; the curve ends at its pressure maximum. The model has no
+        variants: a C20 or a layer compliance on top takes the analytic forms (see the terms)."""
+        if not self.ladder:
+            raise DesignError("strain_stiffening.c30_mpa", "this model has no stiffening ladder")
+        if not 0.0 < c30_mpa <= self.ladder_top_mpa * (1.0 + 1e-9):
+            raise DesignError("strain_stiffening.c30_mpa", f"{c30_mpa:g} MPa is outside the stiffening ladder's "
+                                                           f"(0, {self.ladder_top_mpa:g}] MPa")
+        if c30_mpa not in self._laddered:
+            if len(self._laddered) > 256:
+                self._laddered.clear()
+            self._laddered[c30_mpa] = ReducedModel(self.design, _ladder_characterisation(self, c30_mpa))
+        return self._laddered[c30_mpa]
 
     # -- the terms ----------------------------------------------------------------------------------
     def contact_pressure_kpa(self, gap_scale: float = 1.0) -> float:
@@ -223,6 +255,10 @@ class ReducedModel:
 
         def v(key):
             return fx.value_of(values, key)
+
+        if self.ladder and v(LADDER_EFFECT) > 0:  # the stiffer rubber's own law (see laddered)
+            return self.laddered(v(LADDER_EFFECT)).run(protocol, {**values, LADDER_EFFECT: 0.0}, None, calibration,
+                                                       partial)
 
         p = protocol.pressure_kpa
         x = viscoelastic_pressure(p, protocol.times_s(), v("viscoelasticity"), v("viscoelasticity.tau_s"))
@@ -332,6 +368,51 @@ def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
             raise DesignError(f"calibration.{key}", f"{value:g} is outside [{lo:g}, {hi:g}]")
         out[key] = float(value)
     return out
+
+
+#: points along a laddered curve (shares of its final bend)
+LADDER_POINTS = 61
+
+
+def _along(run: Mapping[str, np.ndarray], share: np.ndarray) -> dict[str, np.ndarray]:
+    """A run's curves at ``share`` of its final bend (the bend kept rising: a stalled step is skipped)."""
+    bend = np.maximum.accumulate(np.asarray(run["bend_angle_deg"], float))
+    keep = np.concatenate([[True], np.diff(bend) > 0])
+    at = share * bend[keep][-1]
+    return {k: np.interp(at, bend[keep], np.asarray(run[k], float)[keep]) for k in CURVES}
+
+
+def _ladder_characterisation(model: ReducedModel, c30_mpa: float) -> Characterisation:
+    """The characterisation at Yeoh C30 + ``c30_mpa`` from the ladder of ``model`` (see
+    :meth:`ReducedModel.laddered`)."""
+    ladder, c = model.ladder, model.characterisation
+    values = np.array([r["value"] for r in ladder])
+    j = int(np.clip(np.searchsorted(values, c30_mpa) - 1, 0, len(ladder) - 2))
+    w = (c30_mpa - values[j]) / (values[j + 1] - values[j])
+    share = np.linspace(0.0, 1.0, LADDER_POINTS)
+    lo, hi = _along(ladder[j], share), _along(ladder[j + 1], share)
+    curves = {k: (1.0 - w) * lo[k] + w * hi[k] for k in CURVES}
+    top = int(np.argmax(curves["pressure_kpa"]))
+    keep = distinct_steps(curves["pressure_kpa"][:top + 1])
+    curves = {k: v[keep] for k, v in curves.items()}
+    bend = curves["bend_angle_deg"]
+    # the rod: the nominal's shape at the same bend, its last shape scaled beyond its own end
+    nominal = np.maximum.accumulate(c.bend_angle_deg)
+    at = np.minimum(bend, nominal[-1])
+    scale = np.where(at > 0, bend / np.where(at > 0, at, 1.0), 1.0)
+
+    def rows(table: np.ndarray) -> np.ndarray:
+        return np.stack([np.interp(at, nominal, col) for col in table.T], axis=1)
+
+    x, angle, length, comp = ((c.rod_x_mm, c.rod_angle_rad, c.rod_length_mm, c.compliance_rad_per_n_mm)
+                              if c.has_rod else _even_rod(model.design, c))
+    p, b = curves["pressure_kpa"][-1], bend[-1]
+    return Characterisation(
+        **curves, design_name=c.design_name, design_digest=c.design_digest, full_bend_pressure_kpa=None,
+        reason=f"pressure maximum of {p:.4g} kPa at {b:.1f} deg bend (Yeoh C30 + {c30_mpa:.3g} MPa, between the FE's "
+               f"runs at {values[j]:g} and {values[j + 1]:g} MPa)",
+        mesh=c.mesh, rod_x_mm=x, rod_angle_rad=rows(angle) * scale[:, None], rod_length_mm=rows(length),
+        compliance_rad_per_n_mm=rows(comp), source="ladder")
 
 
 def _even_rod(design: Design, c: Characterisation):
