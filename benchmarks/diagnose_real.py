@@ -7,7 +7,10 @@ curvature from the tip and base positions (bend angle = curvature x 43 mm). The 
 from ``../shared/data/`` (no licence: never copied into the repository) and written as pnmold
 recordings with the metadata that says how they were measured: the bend angle over the lab's
 43 mm, the piston's volume through air. The design is ``benchmarks/designs/marchese2015-ribbed.toml``
-(Table 1 of the paper, the rest assumed and stated there).
+(Table 1 of the paper, the rest assumed and stated there); ``--design
+benchmarks/designs/marchese2015-ribbed-two-sided.toml`` is the segment as built, with its passive side
+(its recordings past the model's pressure maximum make the diagnosis run the stiffening ladder: FE,
+about 3 minutes once).
 
 Prints: the design used, the calibrated values, what the diagnosis names on the bending and the
 P-V recording (and on both together, and on the blocked-force recording of the same segment), the

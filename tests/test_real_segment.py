@@ -114,9 +114,9 @@ def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past
 def test_the_segment_as_built_names_its_rubbers_large_strain_stiffening(diagnosed):
     """Both sides modelled, the bending curve past the model's pressure maximum is read off the FE's runs
     with a stiffer rubber at large strain (the stiffening ladder): strain stiffening is named by its Yeoh
-    C30, inside the ladder and clearly above zero, and halves the held-out error; with the P-V curve
-    beside it the piston's air column is named too. The one-sided design, which leaves a side out, is
-    not mended by it."""
+    C30, inside the ladder and clearly above zero, the bending curve within 10 % of its range; the P-V
+    curve beside it names the piston's air column and the same C30 (two recordings, one rubber). The
+    one-sided design, which leaves a side out, is not mended by it."""
     bend = diagnosed["two-sided bending"]
     named = {m["effect"]: m for m in bend["missing_physics"]}
     assert list(named) == ["strain_stiffening"], bend["summary"]
@@ -124,12 +124,13 @@ def test_the_segment_as_built_names_its_rubbers_large_strain_stiffening(diagnose
     spread = named["strain_stiffening"]["uncertainty"]["strain_stiffening.c30_mpa"]
     top = diagnosed["two-sided bending-diagnosis"].decision.final.fit.hypothesis.parameters[-1].high
     assert 2 * spread < c30 < top
-    assert bend["fit"]["heldout_rmse_after"] < 0.5 * bend["fit"]["heldout_rmse_before"]
+    assert bend["fit"]["heldout_rmse_after"] < bend["fit"]["heldout_rmse_before"]
     assert REAL.bend_rms_share(bend, REAL.read_rows(REAL.BENDING)["bend_angle_deg"]) < 0.10
     assert "strain_stiffening" in bend["summary"] and "Yeoh" in bend["summary"]
     both = diagnosed["two-sided both"]
-    assert {m["effect"] for m in both["missing_physics"]} == {"dead_volume", "strain_stiffening"}
-    dead = next(m for m in both["missing_physics"] if m["effect"] == "dead_volume")
-    assert dead["rig_check"]["consistent"]
+    by_name = {m["effect"]: m for m in both["missing_physics"]}
+    assert set(by_name) == {"dead_volume", "strain_stiffening"}
+    assert by_name["dead_volume"]["rig_check"]["consistent"]
+    assert abs(by_name["strain_stiffening"]["parameters"]["strain_stiffening.c30_mpa"] / c30 - 1) < 0.25
     assert both["fit"]["heldout_rmse_after"] < 0.2 * both["fit"]["heldout_rmse_before"]
     assert not diagnosed["bending"]["missing_physics"]  # one side only: the misfit is the missing side

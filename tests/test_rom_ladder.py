@@ -35,7 +35,8 @@ def ladder():
     design, full = _bundled_fpn()
     steps, top = _steps_below(full, 30.0)
     nominal = _ending_at(full, steps, f"pressure maximum of {top:.4g} kPa at 150.0 deg bend and 9 mL: past it ...")
-    variants = {f"{LADDER_EFFECT}={v:g}": {"format": 2, "value": v, **_rung(full, *spec)} for v, spec in RUNGS.items()}
+    variants = {f"{LADDER_EFFECT}={v:g}": {"format": 2, "value": v, "stop": "pressure_maximum", **_rung(full, *spec)}
+                for v, spec in RUNGS.items()}
     return design, full, ReducedModel(design, nominal), ReducedModel(design, replace(nominal, variants=variants))
 
 
@@ -109,3 +110,24 @@ def test_the_diagnosis_fits_strain_stiffening_by_c30_on_a_ladder():
     (c30,) = [p for p in h.parameters if p.key == LADDER_KEY]
     assert (c30.low, c30.high) == (0.0, 0.003)
     assert [p.key for p in hypothesis([effect]).parameters if not p.calibration] == ["strain_stiffening"]
+
+
+def test_past_a_run_that_ends_at_a_bifurcation_the_law_is_extrapolated_not_cut(ladder):
+    """A run whose path meets a bifurcation (``instability``) with its pressure still rising has not
+    reached a maximum: rows up to 10 % past its end read the law's last slope (flagged ``beyond_fe``),
+    further ones have no equilibrium there; a run's own pressure maximum, or the nominal's, ends the law."""
+    from pnmold.physics.rom import LADDER_EXTRAPOLATION
+
+    design, full, _, laddered = ladder
+    variants = {k: {**v, "stop": "instability"} if v["value"] == 0.003 else v
+                for k, v in laddered.characterisation.variants.items()}
+    model = ReducedModel(design, replace(laddered.characterisation, variants=variants))
+    at_top = model.laddered(0.003).characterisation
+    assert not at_top.ends_at_pressure_maximum and "critical point" in at_top.reason
+    assert model.laddered(0.001).characterisation.ends_at_pressure_maximum  # both of its runs end at one
+    top = float(at_top.pressure_kpa[-1])
+    out = _free(model, np.array([0.5 * top, 1.05 * top, 1.3 * top]), 0.003)
+    assert list(out["beyond_fe"]) == [False, True, True]
+    assert out["pressure_excess"][0] == 0 and out["pressure_excess"][1] == 0
+    assert out["pressure_excess"][2] == pytest.approx(1 - (1 + LADDER_EXTRAPOLATION) / 1.3, rel=1e-6)
+    assert at_top.bend_angle_deg[-1] < out["bend_angle_deg"][1] < out["bend_angle_deg"][2]

@@ -47,6 +47,11 @@ class Diagnosis:
     def named(self) -> list[str]:
         return [m["effect"] for m in self.doc["missing_physics"]]
 
+    @property
+    def past_maximum(self) -> bool:
+        """Rows lie past the calibrated baseline's pressure maximum."""
+        return _past_maximum(self.decision.baseline.fit.predictions, self.data)
+
 
 def by_series(data: DataSet, z: np.ndarray) -> list[np.ndarray]:
     out, i = [], 0

@@ -27,20 +27,21 @@ def candidate_effects(recordings: Sequence[Recording], model: str = "rom") -> li
     return [e for e in EFFECTS.values() if model in e.models and kinds & set(e.kinds)]
 
 
-def stiffening_top(design: Design, recordings: Sequence[Recording], progress=None) -> float:
+def stiffening_top(design: Design, recordings: Sequence[Recording], progress=None, past: bool = False) -> float:
     """The largest Yeoh C30 of the design's stiffening ladder when the recordings need one, else 0.
 
     Needed when the design's free run ends at a pressure maximum and a quasi-static recording holds a
-    higher pressure (with the design's rubber the model cannot reach it): a stiffer rubber's law then
-    goes on past the maximum, which a factor on the nominal law cannot show. The ladder is FE (minutes,
-    once, cached; :func:`pnmold.physics.characterise.stiffening_ladder`)."""
+    higher pressure (with the design's rubber the model cannot reach it), or ``past``: rows lie past the
+    calibrated model's maximum (:attr:`pnmold.diagnose.core.Diagnosis.past_maximum`): a stiffer rubber's
+    law then goes on past the maximum, which a factor on the nominal law cannot show. The ladder is FE
+    (minutes, once, cached; :func:`pnmold.physics.characterise.stiffening_ladder`)."""
     from pnmold.physics.characterise import characterise, stiffening_ladder
     from pnmold.physics.rom import ReducedModel
 
     c = characterise(design, progress=progress)
     quasi = [r for r in recordings if r.kind != "step"]
     top = max((float(np.max(r.columns["pressure_kpa"])) for r in quasi), default=0.0)
-    if not (c.ends_at_pressure_maximum and top > float(np.max(c.pressure_kpa))):
+    if not (c.ends_at_pressure_maximum and (past or top > float(np.max(c.pressure_kpa)))):
         return 0.0
     return ReducedModel(design, stiffening_ladder(design, progress=progress)).ladder_top_mpa
 

@@ -28,10 +28,16 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     c = characterise(design, progress=progress)
     reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
              "reason": c.reason}
-    top = stiffening_top(design, recordings, progress)  # before the forward: its model reads the ladder
-    diag = diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
-                    diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share,
-                    stiffening_top_mpa=top)
+    def run(top: float) -> Diagnosis:  # the forward after the ladder: its model reads it
+        return diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
+                        diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share,
+                        stiffening_top_mpa=top)
+
+    top = stiffening_top(design, recordings, progress)
+    diag = run(top)
+    if not top and diag.past_maximum:  # past the calibrated model's maximum, though not the design rubber's
+        top = stiffening_top(design, recordings, progress, past=True)
+        diag = run(top) if top else diag
     if json_path:
         write_json_doc(diag, json_path)
     if report_dir:

@@ -61,7 +61,8 @@ class Characterisation:
             keep = distinct_steps(doc["pressure_kpa"])
             if key.partition("=")[0] != effect or keep.size < 2:
                 continue
-            out.append({**{k: np.asarray(doc[k], float)[keep] for k in CURVES}, "value": float(doc["value"])})
+            out.append({**{k: np.asarray(doc[k], float)[keep] for k in CURVES}, "value": float(doc["value"]),
+                        "stop": doc.get("stop")})
         return sorted(out, key=lambda d: d["value"])
 
     @property

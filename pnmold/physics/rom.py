@@ -125,7 +125,8 @@ class ReducedModel:
         #: the stiffening ladder (:func:`pnmold.physics.characterise.stiffening_ladder`): the nominal law and the
         #: FE's free runs with Yeoh C30 added, by C30; only where the free run ends at a pressure maximum
         rungs = c.variant_runs(LADDER_EFFECT) if c.ends_at_pressure_maximum else []
-        self.ladder = [{**{k: getattr(c, k) for k in CURVES}, "value": 0.0}, *rungs] if rungs else []
+        self.ladder = [{**{k: getattr(c, k) for k in CURVES}, "value": 0.0, "stop": "pressure_maximum"}, *rungs
+                       ] if rungs else []
         self._laddered: dict[float, ReducedModel] = {}
 
     @classmethod
@@ -279,7 +280,8 @@ class ReducedModel:
                 at = ", ".join(f"{q:.4g}" for q in p[past[:-1]][:5])
                 raise SolveError(f"reduced model: no equilibrium of {self.design.name} at {at} kPa: beyond the FE's "
                                  f"{self.characterisation.reason}")
-            p_bend, p_vol = np.minimum(p_bend, t.p[-1]), np.minimum(p_vol, t.p[-1])
+            reach = self._reach_kpa()
+            p_bend, p_vol = np.minimum(p_bend, reach), np.minimum(p_vol, reach)
         soft = np.broadcast_to(soft, p_bend.shape)
         stretch = np.broadcast_to(stretch * layer_stretch, p_bend.shape)
         angle = _interp(t.p, t.angle, p_bend)
@@ -325,10 +327,19 @@ class ReducedModel:
         free law's pressure ``p_read``) when the characterisation ended at one, else 0: under pressure
         control there is no equilibrium past a limit point (the actuator snaps), so the law is not
         extrapolated there; the share says how far out of reach the row is."""
-        top = self.tables.p[-1]
-        if not self.characterisation.ends_at_pressure_maximum:
+        top = self._reach_kpa()
+        if not np.isfinite(top):
             return np.zeros_like(p_read)
         return np.where(p_read > top, 1.0 - top / np.maximum(p_read, top), 0.0)
+
+    def _reach_kpa(self) -> float:
+        """The free law's pressure past which a row has no equilibrium: the FE's maximum when its run ended
+        at one; for a laddered model whose runs ended at a bifurcation, :data:`LADDER_EXTRAPOLATION` past
+        their end (the law extrapolated up to there); else none (inf)."""
+        c, top = self.characterisation, float(self.tables.p[-1])
+        if c.ends_at_pressure_maximum:
+            return top
+        return top * (1.0 + LADDER_EXTRAPOLATION) if c.source == "ladder" else float("inf")
 
 
     def _equilibria(self, angle: np.ndarray, length: np.ndarray, comp: np.ndarray, gxz: tuple[float, float],
@@ -372,6 +383,10 @@ def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
 
 #: points along a laddered curve (shares of its final bend)
 LADDER_POINTS = 61
+#: how far past the end of ladder runs that met a bifurcation (pressure still rising) their law is
+#: extrapolated, as a share of the end's pressure; beyond, no equilibrium (assumed: without a bound a fit
+#: reaches for the cheap straight line, on the ribbed segment's P-V 45 % past the end)
+LADDER_EXTRAPOLATION = 0.1
 
 
 def _along(run: Mapping[str, np.ndarray], share: np.ndarray) -> dict[str, np.ndarray]:
@@ -407,10 +422,16 @@ def _ladder_characterisation(model: ReducedModel, c30_mpa: float) -> Characteris
     x, angle, length, comp = ((c.rod_x_mm, c.rod_angle_rad, c.rod_length_mm, c.compliance_rad_per_n_mm)
                               if c.has_rod else _even_rod(model.design, c))
     p, b = curves["pressure_kpa"][-1], bend[-1]
+    # a maximum where the pressure peaks inside, or where both runs end at one; a run that ends where the FE
+    # meets a bifurcation (``instability``, the pressure still rising) leaves the law beyond to extrapolation
+    ends = [ladder[j + 1]] if w >= 1.0 else [ladder[j], ladder[j + 1]]
+    maximum = top < LADDER_POINTS - 1 or all(r.get("stop") == "pressure_maximum" for r in ends)
+    runs = f"Yeoh C30 + {c30_mpa:.3g} MPa, between the FE's runs at {values[j]:g} and {values[j + 1]:g} MPa"
     return Characterisation(
         **curves, design_name=c.design_name, design_digest=c.design_digest, full_bend_pressure_kpa=None,
-        reason=f"pressure maximum of {p:.4g} kPa at {b:.1f} deg bend (Yeoh C30 + {c30_mpa:.3g} MPa, between the FE's "
-               f"runs at {values[j]:g} and {values[j + 1]:g} MPa)",
+        reason=(f"pressure maximum of {p:.4g} kPa at {b:.1f} deg bend ({runs})" if maximum else
+                f"the FE's runs end where their path meets a critical point (their pressure still rising): "
+                f"{p:.4g} kPa at {b:.1f} deg bend ({runs})"),
         mesh=c.mesh, rod_x_mm=x, rod_angle_rad=rows(angle) * scale[:, None], rod_length_mm=rows(length),
         compliance_rad_per_n_mm=rows(comp), source="ladder")
 
