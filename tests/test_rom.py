@@ -95,7 +95,7 @@ def test_a_cached_fe_characterisation_gains_only_its_missing_variant_runs(tmp_pa
     free_p = characterisation_from_steps(STEPS, fpn).pressure_kpa
     grid = []
 
-    def fake_runs(design, size, pressures_kpa, missing, say):
+    def fake_runs(design, size, missing, say, pressures_kpa=None, max_pressure_kpa=None):
         asked.extend(missing)
         grid.append(list(pressures_kpa))
         return {k: {"format": ch.VARIANT_FORMAT, "value": 1.0, "pressure_kpa": [0.0, 2.0], "seconds": 3.0}

@@ -131,3 +131,37 @@ def test_past_a_run_that_ends_at_a_bifurcation_the_law_is_extrapolated_not_cut(l
     assert out["pressure_excess"][0] == 0 and out["pressure_excess"][1] == 0
     assert out["pressure_excess"][2] == pytest.approx(1 - (1 + LADDER_EXTRAPOLATION) / 1.3, rel=1e-6)
     assert at_top.bend_angle_deg[-1] < out["bend_angle_deg"][1] < out["bend_angle_deg"][2]
+
+
+def test_the_ladder_runs_each_c30_to_its_own_end_once_and_is_cached(tmp_path, monkeypatch):
+    """``stiffening_ladder`` asks the FE for the missing runs only, each up to the pressure limit (not at
+    the free run's pressures), keeps why each ended and writes them back to the cache."""
+    import importlib
+    import json
+
+    ch = importlib.import_module("pnmold.physics.characterise")
+    design, full = _bundled_fpn()
+    steps, top = _steps_below(full, 30.0)
+    nominal = replace(_ending_at(full, steps, f"pressure maximum of {top:.4g} kPa at 150.0 deg bend"), source="fe")
+    monkeypatch.setenv("PNMOLD_CACHE", str(tmp_path))
+    path = ch.cache_path(design, ch.DEFAULT_SIZE, ch.DEFAULT_MAX_PRESSURE_KPA)
+    from pnmold.fsutil import write_json
+
+    write_json(path, nominal.to_json())
+    asked = []
+
+    def fake_runs(design, size, missing, say, pressures_kpa=None, max_pressure_kpa=None):
+        asked.append((list(missing), pressures_kpa, max_pressure_kpa))
+        return {k: {"format": ch.VARIANT_FORMAT, "value": float(k.partition("=")[2]), "stop": "instability",
+                    **_rung(full, 40.0, 1.1), "seconds": 2.0} for k in missing}
+
+    monkeypatch.setattr(ch, "_run_variants", fake_runs)
+    monkeypatch.setattr(ch, "variant_keys", lambda: [])  # the other variants are not this test's
+    got = ch.stiffening_ladder(design)
+    keys = ch.ladder_keys(design)
+    assert asked == [(keys, None, ch.DEFAULT_MAX_PRESSURE_KPA)]
+    assert [r["stop"] for r in got.variant_runs(LADDER_EFFECT)] == ["instability"] * 3
+    assert sorted(json.loads(path.read_text())["variants"]) == sorted(keys)
+    assert ReducedModel(design, got).ladder_top_mpa == pytest.approx(0.006 * design.material.c10_mpa, rel=1e-3)
+    ch.stiffening_ladder(design)
+    assert len(asked) == 1  # cached: nothing runs again

@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pnmold.physics.characterise import LADDER_EFFECT
+
 from .calibrate import calibration_parameters
 from .fitting import Fit, Fitter, Hypothesis, Parameter
 
@@ -48,7 +50,7 @@ FIT_EXTRAS = {"viscoelasticity": ("tau_s",), "self_contact": ("gap_scale",)}
 EXTRA_STARTS = {"viscoelasticity.tau_s": (0.3, 2.0, 12.0), "self_contact.gap_scale": (0.3, 0.6, 1.0, 2.0)}
 #: a main parameter that stands in for an effect's own (``main`` of :func:`decide`): strain stiffening read off
 #: the stiffening ladder by Yeoh C30 (recordings past the nominal's pressure maximum, see ``ladder_parameter``)
-LADDER_KEY = "strain_stiffening.c30_mpa"
+LADDER_KEY = LADDER_EFFECT
 
 
 def ladder_parameter(top_mpa: float) -> dict[str, Parameter]:
@@ -58,7 +60,7 @@ def ladder_parameter(top_mpa: float) -> dict[str, Parameter]:
 
 def _effect_of(key: str) -> str | None:
     """The effect whose strength ``key`` is (its main parameter), else None (a calibration, an extra)."""
-    return key if "." not in key else ("strain_stiffening" if key == LADDER_KEY else None)
+    return key if "." not in key else (key.partition(".")[0] if key == LADDER_KEY else None)
 
 
 @dataclass

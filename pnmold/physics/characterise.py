@@ -133,10 +133,7 @@ def characterise(design: Design, *, size: MeshSize | None = None,
     if variants and missing and result.source == "fe":
         extra = result.pressure_kpa[-1] * (1.0 + 0.05 * np.arange(1, 6))  # a stiffer variant gets further
         pressures = [float(p) for p in (*result.pressure_kpa[1:], *extra[extra <= max_pressure_kpa])]
-        variants = {**result.variants, **_run_variants(design, size, pressures, missing, say)}
-        timings = {**result.timings_s, **{f"variant {k}": v.pop("seconds") for k, v in variants.items()
-                                          if "seconds" in v}}
-        result = replace(result, variants=variants, timings_s=timings)
+        result = _with_variants(result, _run_variants(design, size, missing, say, pressures_kpa=pressures))
         write_json(path, result.to_json())
     return result
 
@@ -161,22 +158,8 @@ def stiffening_ladder(design: Design, *, size: MeshSize | None = None,
     missing = [k for k in ladder_keys(design) if result.variants.get(k, {}).get("format") != VARIANT_FORMAT]
     if not missing or result.source != "fe":
         return result
-    from pnmold.quickfe import run_fe
-
     say = progress or (lambda stage: None)
-    variants, timings, first = dict(result.variants), dict(result.timings_s), None
-    for key in missing:
-        value = float(key.partition("=")[2])
-        say(f"{design.name}: free bending with Yeoh C30 + {value:g} MPa (FE, no gravity)")
-        t0 = time.perf_counter()
-        run = run_fe(design, orientation=NO_GRAVITY, effects={LADDER_EFFECT: value}, size=size,
-                     max_pressure_kpa=max_pressure_kpa, mesh_of=first, keep_partial=True)
-        first = first or run
-        steps = [s.as_dict() for s in run.solution.steps]
-        variants[key] = {"format": VARIANT_FORMAT, "value": value, **{k: [float(s[k]) for s in steps] for k in CURVES},
-                         "reason": run.solution.reason, "stop": run.solution.stop}
-        timings[f"variant {key}"] = round(time.perf_counter() - t0, 2)
-    result = replace(result, variants=variants, timings_s=timings)
+    result = _with_variants(result, _run_variants(design, size, missing, say, max_pressure_kpa=max_pressure_kpa))
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
 
@@ -186,11 +169,13 @@ def variant_keys() -> list[str]:
     return [f"{name}={value:g}" for name, values in VARIANTS.items() for value in values]
 
 
-def _run_variants(design: Design, size: MeshSize, pressures_kpa: Sequence[float], keys: Sequence[str],
-                  say: Callable[[str], None]) -> dict[str, dict]:
-    """Free runs (no gravity) with one effect each at a :data:`VARIANTS` value: the curves at the
-    free run's pressures (and a little beyond), so that variant and nominal meet step by step
-    (a variant's small change is not lost in interpolating the nominal between its steps).
+def _run_variants(design: Design, size: MeshSize, keys: Sequence[str], say: Callable[[str], None], *,
+                  pressures_kpa: Sequence[float] | None = None, max_pressure_kpa: float | None = None
+                  ) -> dict[str, dict]:
+    """Free runs (no gravity) with one effect each (``effect=value`` keys): the curves at ``pressures_kpa``
+    (the :data:`VARIANTS`: the free run's pressures and a little beyond, so that variant and nominal meet
+    step by step and a variant's small change is not lost in interpolating the nominal between its
+    steps), or each to its own end up to ``max_pressure_kpa`` (the ladder), with why it ended (``stop``).
     The effects change the material or the layer, not the geometry: one mesh serves them all."""
     from pnmold.quickfe import run_fe
 
@@ -199,13 +184,20 @@ def _run_variants(design: Design, size: MeshSize, pressures_kpa: Sequence[float]
         name, value = key.partition("=")[0], float(key.partition("=")[2])
         say(f"{design.name}: free bending with {name} = {value:g} (FE, no gravity)")
         t0 = time.perf_counter()
-        run = run_fe(design, orientation=NO_GRAVITY, effects={name: value}, pressures_kpa=pressures_kpa, size=size,
-                     mesh_of=first, keep_partial=True)
+        run = run_fe(design, orientation=NO_GRAVITY, effects={name: value}, pressures_kpa=pressures_kpa,
+                     max_pressure_kpa=max_pressure_kpa, size=size, mesh_of=first, keep_partial=True)
         first = first or run
         steps = [s.as_dict() for s in run.solution.steps]
         out[key] = {"format": VARIANT_FORMAT, "value": value, **{k: [float(s[k]) for s in steps] for k in CURVES},
-                    "reason": run.solution.reason, "seconds": round(time.perf_counter() - t0, 2)}
+                    "reason": run.solution.reason, "stop": run.solution.stop,
+                    "seconds": round(time.perf_counter() - t0, 2)}
     return out
+
+
+def _with_variants(result: Characterisation, runs: dict[str, dict]) -> Characterisation:
+    """``result`` with the variant ``runs`` of :func:`_run_variants` added (their seconds in the timings)."""
+    timings = {**result.timings_s, **{f"variant {k}": v.pop("seconds") for k, v in runs.items() if "seconds" in v}}
+    return replace(result, variants={**result.variants, **runs}, timings_s=timings)
 
 
 def _run_fe(design: Design, size: MeshSize, max_pressure_kpa: float,
