@@ -6,11 +6,14 @@ piston pushes air into one side's channels, the pressure is read after each incr
 curvature from the tip and base positions (bend angle = curvature x 43 mm). The data are read
 from ``../shared/data/`` (no licence: never copied into the repository) and written as pnmold
 recordings with the metadata that says how they were measured: the bend angle over the lab's
-43 mm, the piston's volume through air. The design is ``benchmarks/designs/marchese2015-ribbed.toml``
-(Table 1 of the paper, the rest assumed and stated there); ``--design
-benchmarks/designs/marchese2015-ribbed-two-sided.toml`` is the segment as built, with its passive side
-(its recordings past the model's pressure maximum make the diagnosis run the stiffening ladder: FE,
-about 3 minutes once).
+43 mm, the piston's volume through air. The design is the segment as built,
+``benchmarks/designs/marchese2015-ribbed-two-sided.toml`` (both actuated layers about the constraint, one
+driven; Table 1 of the paper, the rest assumed and stated there), with the dimensions the paper does
+not give stated with their uncertainty (:data:`UNCERTAIN_MM`, ``pnmold diagnose --uncertain``: a free FE
+run each, once); ``--exact-design`` takes them as exact; ``--design
+benchmarks/designs/marchese2015-ribbed.toml`` is the first approximation, one side over the constraint
+(the side it leaves out keeps its bending curve "unexplained", pointing at the design). The recordings
+past the model's pressure maximum make the diagnosis run the stiffening ladder (FE, about 3 minutes once).
 
 Prints: the design used, the calibrated values, what the diagnosis names on the bending and the
 P-V recording (and on both together, and on the blocked-force recording of the same segment), the
@@ -19,7 +22,8 @@ against what Boyle's law alone says of the rig's air column from the first incre
 segment has barely bent, nearly all the piston's volume compresses air: V_air ~ dV (p_atm + p) / p,
 an upper bound).
 
-    .venv/bin/python benchmarks/diagnose_real.py [--out out/real] [--design FILE] [--model-error SHARE]
+    .venv/bin/python benchmarks/diagnose_real.py [--out out/real] [--design FILE] [--exact-design]
+        [--model-error SHARE]
 """
 
 from __future__ import annotations
@@ -44,7 +48,9 @@ DATA = ROOT.parent / "shared" / "data"
 BENDING = DATA / "marchese2015_ribbed_bending.csv"
 #: the blocked tip force, measured with another piston (a plate on a load cell at the tip)
 FORCE = DATA / "marchese2015_ribbed_blocked_force.csv"
-DESIGN = ROOT / "benchmarks" / "designs" / "marchese2015-ribbed.toml"
+#: the first approximation (one side) and the segment as built (both sides; the default)
+ONE_SIDED = ROOT / "benchmarks" / "designs" / "marchese2015-ribbed.toml"
+DESIGN = ROOT / "benchmarks" / "designs" / "marchese2015-ribbed-two-sided.toml"
 #: the paper's bending length: bend angle = curvature x 0.043 m (the data file's header)
 BENDING_LENGTH_MM = 43.0
 #: the rig's stated accuracy, from the lab's own error estimate in the script the data come from
@@ -53,6 +59,16 @@ BENDING_LENGTH_MM = 43.0
 #: times its area (3.81 cm bore: 11.40 cm^2; the script squares the diameter, 0.435 mL)
 PRESSURE_ACCURACY_KPA = 0.02 * 15 * 6.894757
 VOLUME_ACCURACY_ML = 0.03 * 3.141592653589793 * (3.81 / 2) ** 2
+#: what the design does not know of the segment, as standard uncertainties (mm; `pnmold diagnose --uncertain`):
+#: the dimensions the paper does not give and the design infers (each one's reasoning is in the design file).
+#: Assumed: a wall read off a drawing's outer sizes is known to about a millimetre; the ribs to 0.3 mm (the
+#: segment's 37.8 mm length in Table 1 holds them, the end walls' split of the rest is assumed)
+UNCERTAIN_MM = {
+    "chambers.outer_wall_mm": 1.0,  # the sides follow from Table 1's width; the roof is assumed as thick
+    "chambers.inside_wall_mm": 0.3,  # ribs: Table 1's length less 13 channels and the assumed end walls
+    "chambers.tip_wall_mm": 1.0,  # assumed: the distal wall stands in for the tip's printed support
+    "paper.depth_mm": 1.0,  # assumed: the constraint at the centre layer's middle
+}
 SOURCE = "Marchese, Katzschmann & Rus, Soft Robotics 2015, ribbed segment (shared/data; no licence: testing only)"
 
 
@@ -89,9 +105,10 @@ def boyle_bound_ml(rows: int = 2) -> list[float]:
     return [float(vi * (P_ATM_KPA + pi) / pi) for pi, vi in zip(p, v, strict=True)]
 
 
-def diagnose(design: Path, recordings: list[Path], out: Path, model_error: float | None) -> dict:
+def diagnose(design: Path, recordings: list[Path], out: Path, model_error: float | None,
+             uncertain: dict[str, float]) -> dict:
     cmd = [sys.executable, "-m", "pnmold.cli", "diagnose", str(design), *map(str, recordings), "--json", str(out),
-           "--quiet"]
+           "--quiet", *(f"--uncertain={k}={v:g}" for k, v in uncertain.items())]
     if model_error is not None:
         cmd += ["--model-error", f"{model_error:g}"]
     t0 = time.perf_counter()
@@ -132,6 +149,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "real")
     parser.add_argument("--design", type=Path, default=DESIGN)
     parser.add_argument("--model-error", type=float, default=None, help="pnmold diagnose --model-error")
+    parser.add_argument("--exact-design", action="store_true",
+                        help="take the design's dimensions as exact (no --uncertain: the design is the segment)")
     args = parser.parse_args()
     if not BENDING.is_file():
         sys.exit(f"no real data at {DATA} (the shared folder beside the checkout)")
@@ -146,7 +165,10 @@ def main() -> None:
     measured = read_rows(BENDING)["bend_angle_deg"]
     runs = {"bending": [paths["bending"]], "pv": [paths["pv"]], "both": [paths["bending"], paths["pv"]],
             "force": [paths["force"]]}
-    docs = {k: diagnose(args.design, v, args.out / f"{k}.json", args.model_error) for k, v in runs.items()}
+    uncertain = {} if args.exact_design else UNCERTAIN_MM
+    print("uncertain dimensions (standard uncertainty): "
+          + (", ".join(f"{k} {v:g} mm" for k, v in uncertain.items()) or "none, the design taken as exact"))
+    docs = {k: diagnose(args.design, v, args.out / f"{k}.json", args.model_error, uncertain) for k, v in runs.items()}
     for label, doc in docs.items():
         report(label, doc)
     bend = docs["bending"]

@@ -177,3 +177,32 @@ def test_most_rows_beyond_a_stopped_fe_are_refused_naming_the_recordings_pressur
     with pytest.raises(SolveError, match=r"rows need the model beyond 2[89]\.\d+ kPa of the recordings \(25 kPa"):
         diagnose({"name": "toy", "digest": "0"}, [rec], _reaching(25.0), EFFECTS, seed=1,
                  reach={**REACH, "max_pressure_kpa": 25.0}, model_form_share=0.0, pressure_form_share=0.0)
+
+
+def test_held_out_rows_a_fold_extrapolates_are_judged_against_the_predictions_own_spread():
+    """One short ramp, the stiffening showing mostly at its top: the fold without the top rows barely
+    pins it, so its prediction there carries a wide spread (linearised, the parameters' prior their
+    bounds); the verdict judges held-out rows against that spread, not against the noise alone. Rows
+    a fold's parameters pin (mid-ramp) keep nearly their plain score."""
+    from pnmold.diagnose.data import build_dataset
+    from pnmold.diagnose.decide import hypothesis, judge, predictive_z, starts_for
+    from pnmold.diagnose.fitting import Fitter
+
+    p = np.linspace(0.0, 40.0, 15)
+    phase = np.array(["inflate"] * p.size)
+    truth = toy({"stiffening": 2e-4}, {}, p=p, phase=phase)
+    rng = np.random.default_rng(2)
+    rec = Recording("ramp.csv", "bending", {"pressure_kpa": p, "phase": phase,
+                                            **{k: v + rng.normal(0, 0.2, p.size) for k, v in truth.items()}}, {})
+
+    def ramp(effects, calib):
+        return [toy(effects, calib, p=p, phase=phase)]
+
+    fitter = Fitter(build_dataset([rec], ramp({}, {}), 0.0, pressure_form_share=0.0), ramp)
+    h = hypothesis([EFFECTS[1]])
+    cand = judge(fitter, h, starts_for(h))
+    plain, spread = np.abs(cand.heldout_z), np.abs(predictive_z(fitter, cand))
+    assert np.all(spread <= plain + 1e-12)
+    block = np.tile(fitter.data.series[0].block, 2)  # tip x and z
+    shrink = {b: float(np.sum(spread[block == b] ** 2) / np.sum(plain[block == b] ** 2)) for b in np.unique(block)}
+    assert shrink[max(shrink)] < 0.5 < shrink[2]  # the top block's extrapolation; mid-ramp nearly as it was

@@ -101,3 +101,20 @@ def test_where_the_model_has_no_equilibrium_the_floor_follows_the_recordings_slo
     on = p <= 20.0
     assert form[on] == pytest.approx(0.02 * p[on] * 2.0)
     assert form[~on] == pytest.approx(0.02 * p[~on] * np.abs(np.gradient(measured, p))[~on])
+
+
+def test_rows_past_the_baselines_maximum_take_the_recordings_slope_in_the_floor():
+    """Past its pressure maximum the model gives the state at the maximum, constant in pressure: its
+    slope (zero) would leave those rows with no pressure form error at all, exactly where the bend runs
+    away at a nearly flat pressure. The recording's own slope stands in, as where the model has no
+    equilibrium."""
+    p = np.linspace(0.0, 30.0, 16)
+    measured = 2.0 * p + 0.1 * p ** 2
+    past = p > 20.0
+    at_maximum = np.where(past, 40.0, 2.0 * p)
+    rec = Recording("ramp.csv", "bending", {"pressure_kpa": p, "bend_angle_deg": measured}, {})
+    baseline = {"bend_angle_deg": at_maximum, "pressure_excess": np.where(past, 1.0 - 20.0 / np.maximum(p, 20.0), 0.0)}
+    (s,) = build_dataset([rec], [baseline], model_form_share=0.0).series
+    floor = np.sqrt(s.sigma ** 2 - s.measurement ** 2)
+    assert floor[~past] == pytest.approx(0.02 * p[~past] * 2.0)
+    assert floor[past] == pytest.approx(0.02 * p[past] * np.abs(np.gradient(measured, p))[past])

@@ -29,6 +29,11 @@ def add_args(parser) -> None:
                         "of a recording without repeated cycles (default 0.01; raise it for a design known only "
                         "roughly, e.g. from another paper's drawings); on bending, P-V and force recordings the "
                         "model's 2%% error in pressure, through its slope, is added row by row")
+    parser.add_argument("--uncertain", action="append", default=[], metavar="FIELD=MM",
+                        help="a design dimension known only to a standard uncertainty, e.g. "
+                        "chambers.outer_wall_mm=1 for a wall read off another paper's drawing (repeatable): the FE "
+                        "solves the design with it moved up by that much (a free run each, once, cached) and what "
+                        "that changes in the recordings, beyond what the modulus absorbs, is a floor under the noise")
 
 
 def run(args) -> int:
@@ -38,10 +43,20 @@ def run(args) -> int:
     share = MODEL_FORM_SHARE if args.model_error is None else args.model_error
     if not 0.0 <= share < 1.0:
         raise UsageError(f"--model-error must be in [0, 1), got {share:g}")
+    uncertain = {}
+    for item in args.uncertain:
+        field, sep, value = item.partition("=")
+        try:
+            uncertain[field.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--uncertain takes FIELD=MM (e.g. chambers.outer_wall_mm=1), got {item!r}")
     design = load(args)
     with stages(args, f"characterise {design.name} (once)") as say:
         diag = diagnose_recordings(design, args.recordings, seed=args.seed, json_path=json_file(args),
-                                   report_dir=args.report, progress=say, model_form_share=share)
+                                   report_dir=args.report, progress=say, model_form_share=share,
+                                   uncertain=uncertain)
     emit_json(args, diag.doc)
     if not args.quiet:
         for r in diag.doc["recordings"]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,6 +30,9 @@ from .locate import locate
 SCHEMA = "pnmold.diagnosis/1"
 #: the share of rows beyond the FE's characterisation above which a diagnosis is refused (assumed)
 REFUSE_BEYOND_FE = 0.2
+#: the design's floor is read again, once, at the calibrated modulus when that is this factor away from where it
+#: was read (assumed: the floor changes little within 10 % of a modulus)
+FLOOR_RESCALE = 1.1
 UNITS = {"tip_x_mm": "mm", "tip_z_mm": "mm", "volume_ml": "mL", "force_n": "N", "pressure_kpa": "kPa",
          "bend_angle_deg": "deg", "flow_slpm": "SLPM", "pressure_far_kpa": "kPa"}
 
@@ -75,7 +78,8 @@ def _full_z(fitter: Fitter, c: Candidate) -> np.ndarray:
 def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forward: Forward,
              effects: list, *, seed: int = 0, reach: dict[str, Any] | None = None,
              model_form_share: float = MODEL_FORM_SHARE,
-             pressure_form_share: float = PRESSURE_FORM_SHARE, stiffening_top_mpa: float = 0.0) -> Diagnosis:
+             pressure_form_share: float = PRESSURE_FORM_SHARE, stiffening_top_mpa: float = 0.0,
+             design_floor: Callable[[float], list[dict[str, np.ndarray]]] | None = None) -> Diagnosis:
     """Calibrate, locate, rank, fit, accept; ``effects`` are catalogue entries to consider
     (those whose kinds include a recorded kind). ``reach``: how far the model's FE
     characterisation went (``max_pressure_kpa``, ``full_bend_pressure_kpa``, ``reason``), to say
@@ -85,16 +89,22 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     ``pressure_form_share`` its error in pressure, carried through the model's slope on quasi-static
     recordings (:data:`pnmold.diagnose.data.PRESSURE_FORM_SHARE`). ``stiffening_top_mpa`` > 0: the forward's
     model has a stiffening ladder up to that Yeoh C30 (:func:`pnmold.diagnose.model.stiffening_top`), and
-    ``strain_stiffening`` is fitted by its C30 on it."""
+    ``strain_stiffening`` is fitted by its C30 on it. ``design_floor(modulus_scale)``: per recording,
+    observable -> per row, the standard deviation the design's stated dimensional uncertainty gives
+    (:class:`pnmold.physics.uncertainty.DesignFloor`), read at that modulus: a floor under the noise, read
+    again, once, at the calibrated modulus when that is over :data:`FLOOR_RESCALE` away."""
     t0 = time.perf_counter()
     kinds = {r.kind for r in recordings}
     effects = [e for e in effects if kinds & set(e.kinds)]
     frame = any(r.kind == "bending" and r.measurement.tip_origin == "camera" for r in recordings)
-    scale, check, left_out = 1.0, None, {}
-    for _ in range(3):  # as it is; about the material the recordings need; without the rows out of reach
+    scale, check, left_out, floor_at, refloored = 1.0, None, {}, None, False
+    # as it is; about the material the recordings need; the design's floor at the calibrated modulus;
+    # without the rows out of reach
+    for _ in range(4):
         start = {} if scale == 1.0 else {"modulus_scale": scale}
+        floor_at = floor_at or scale
         data = build_dataset(list(recordings), _prediction(forward, recordings, start), model_form_share, left_out,
-                             pressure_form_share)
+                             pressure_form_share, design_floor(floor_at) if design_floor else None)
         fitter = Fitter(data, forward)
         calibration = calibration_parameters(scale, frame)
         decision = decide(fitter, effects, seed=seed, calibration=calibration,
@@ -105,10 +115,14 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
             least = reach_scale(_prediction(forward, recordings, {}))
             check = check_material(fitter, frame, design_entry.get("material") or "rubber", least)
             if not check.in_window and (pinned or past or other_rubber_fits(check, decision, DCHI2_MIN)):
-                scale = check.scale
+                scale, floor_at = check.scale, None
                 continue
             if not check.in_window:
                 check = None  # an effect explains what another rubber would not: judged in the window
+        fitted = decision.baseline.fit.values.get("modulus_scale", scale)
+        if design_floor and not refloored and abs(np.log(fitted / floor_at)) > np.log(FLOOR_RESCALE):
+            floor_at, refloored = fitted, True  # the recordings read on the design's runs where the fit put them
+            continue
         out_of_reach = _out_of_reach(decision.final.fit.predictions, data)
         if not out_of_reach:
             break
@@ -144,7 +158,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         })
         if name == "dead_volume":
             rig_notes += _check_rig(missing[-1], recordings, final.fit.predictions)
-    excess = excess_sigma(final.heldout_chi2, final.heldout_z.size)
+    judged = final.predictive_z if final.predictive_z is not None else final.heldout_z
+    excess = excess_sigma(float(np.sum(judged ** 2)), judged.size)  # what the verdict was judged on
     # where the final model still misses (the baseline's misfit is ``mismatch``)
     left = locate(data, by_series(data, _full_z(fitter, final))) if decision.unexplained else []
     if decision.unexplained:  # what was named still counts; what is left is said after it
@@ -167,7 +182,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
                                   if k in {p.key for p in calibration}},
                         "material_check": None if check is None else check.as_json(), "notes": notes},
         "noise": {s.name: s.level for s in data.series},
-        "noise_parts": {s.name: {"measurement": s.measurement, "model_form": s.model_form} for s in data.series},
+        "noise_parts": {s.name: {"measurement": s.measurement, "model_form": s.model_form,
+                                  "design_uncertainty": s.design} for s in data.series},
         "mismatch": mismatch,
         "remaining_mismatch": left,
         "missing_physics": missing,

@@ -65,6 +65,7 @@ class Series:
     measurement: float = 0.0  # the measurement noise estimated from the data (same units)
     model_form: float = 0.0  # the model's form-error floor, RMS over the rows (same units)
     pressure_share: float = PRESSURE_FORM_SHARE  # the model's form error in pressure, a share of it
+    design: float = 0.0  # the design's stated dimensional uncertainty, RMS over the rows (same units)
 
     @property
     def name(self) -> str:
@@ -204,17 +205,32 @@ def observables_of(rec: Recording) -> tuple[str, ...]:
     return found
 
 
+def _within_reach(prediction: dict[str, np.ndarray], name: str) -> np.ndarray:
+    """The prediction of ``name``, NaN on rows past the model's pressure maximum (``pressure_excess``):
+    there it gives the state at the maximum, whose slope in pressure (zero) is not the actuator's."""
+    f = np.asarray(prediction[name], float)
+    excess = prediction.get("pressure_excess")
+    return f if excess is None else np.where(np.asarray(excess, float) > 0, np.nan, f)
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else 0.0
+
+
 def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarray]],
                   model_form_share: float = MODEL_FORM_SHARE, left_out: dict[int, np.ndarray] | None = None,
-                  pressure_form_share: float = PRESSURE_FORM_SHARE) -> DataSet:
+                  pressure_form_share: float = PRESSURE_FORM_SHARE,
+                  design_form: list[dict[str, np.ndarray]] | None = None) -> DataSet:
     """Series for every observable of every recording. Each one's sigma is the measurement noise,
     estimated from the residual against ``baseline`` (a first prediction per recording, which
     removes the curve's own shape): the larger of the scatter of its second differences and of
     the repeated cycles (2, 3, ...); a recording without repeated cycles adds (in quadrature) the
     model-form floor, ``model_form_share`` of the observable's range in it and, row by row, the
     baseline's pressure error (``pressure_form_share``) carried through its slope
-    (:func:`pressure_form`). ``left_out``: recording index -> rows the model cannot reach (no
-    equilibrium), left out of every series."""
+    (:func:`pressure_form`). ``design_form``: per recording, observable -> per row, the standard
+    deviation the design's stated dimensional uncertainty gives it
+    (:class:`pnmold.physics.uncertainty.DesignFloor`), added in quadrature always. ``left_out``:
+    recording index -> rows the model cannot reach (no equilibrium), left out of every series."""
     series: list[Series] = []
     branch0 = block0 = 0
     for i, rec in enumerate(recordings):
@@ -236,11 +252,13 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             form = np.zeros(len(rec))
             if repeats is None:
                 form = np.hypot(model_form_share * span,
-                                pressure_form(rec, baseline[i][name], branch, pressure_form_share, y))
-            form = form[rows]
-            series.append(Series(i, name, y[rows], np.hypot(noise, form), branch[rows] + branch0,
-                                 block[rows] + block0, rows, noise,
-                                 float(np.sqrt(np.mean(form ** 2))) if form.size else 0.0, pressure_form_share))
+                                pressure_form(rec, _within_reach(baseline[i], name), branch, pressure_form_share, y))
+            # the design's own uncertainty is not in the rig's repeats: it stays whatever they say
+            design = np.asarray(design_form[i].get(name, 0.0) if design_form else 0.0, float) * np.ones(len(rec))
+            form, design = form[rows], design[rows]
+            series.append(Series(i, name, y[rows], np.sqrt(noise ** 2 + form ** 2 + design ** 2),
+                                 branch[rows] + branch0, block[rows] + block0, rows, noise, _rms(form),
+                                 pressure_form_share, _rms(design)))
         branch0 += int(branch.max(initial=0)) + 1
         block0 += int(block.max(initial=0)) + 1
     return DataSet(tuple(recordings), tuple(series))

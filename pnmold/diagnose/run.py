@@ -2,44 +2,73 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from pnmold.design import Design
 
 from .core import Diagnosis, diagnose
-from .data import MODEL_FORM_SHARE
+from .data import MODEL_FORM_SHARE, observables_of
 from .model import diagnosis_effects, diagnosis_forward, read_all, stiffening_top
 
 
 def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: int = 0,
                         json_path: str | Path | None = None, report_dir: str | Path | None = None,
                         progress: Callable[[str], None] | None = None,
-                        model_form_share: float = MODEL_FORM_SHARE) -> Diagnosis:
+                        model_form_share: float = MODEL_FORM_SHARE,
+                        uncertain: Mapping[str, float] | None = None) -> Diagnosis:
     """Read and check every recording (a damaged one stops the run before anything is computed
     or written), characterise the design in the FE once (cached; templates ship theirs; its
-    stages go to ``progress``), diagnose, and write the JSON and the report folder."""
-    from pnmold.physics.characterise import characterise
+    stages go to ``progress``), diagnose, and write the JSON and the report folder. ``uncertain``:
+    design dimension -> its standard uncertainty in mm (a design read off a drawing): each costs a
+    free FE run once, and what it changes becomes a floor under the noise
+    (:mod:`pnmold.physics.uncertainty`)."""
+    from pnmold.physics.characterise import characterise, uncertainty_runs
+    from pnmold.physics.uncertainty import DesignFloor, check_uncertain
     from pnmold.report import design_entry
 
     from .output import write_json_doc, write_report
 
     recordings = read_all(paths)
+    uncertain = check_uncertain(design, uncertain or {})
     c = characterise(design, progress=progress)
     reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
              "reason": c.reason}
+    floor = None
+    if uncertain:
+        floor = DesignFloor.of(design, uncertainty_runs(design, uncertain, progress=progress), uncertain)
+
+    def design_floor(scale: float) -> list[dict]:
+        return floor.per_recording(recordings, observables_of, scale)
+
     def run(top: float) -> Diagnosis:  # the forward after the ladder: its model reads it
         return diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
                         diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share,
-                        stiffening_top_mpa=top)
+                        stiffening_top_mpa=top, design_floor=design_floor if floor else None)
 
     top = stiffening_top(design, recordings, progress)
     diag = run(top)
     if not top and diag.past_maximum:  # past the calibrated model's maximum, though not the design rubber's
         top = stiffening_top(design, recordings, progress, past=True)
         diag = run(top) if top else diag
+    if floor is not None:
+        _say_floor(diag, floor)
     if json_path:
         write_json_doc(diag, json_path)
     if report_dir:
         write_report(diag, report_dir)
     return diag
+
+
+def _say_floor(diag: Diagnosis, floor) -> None:
+    """The design's stated uncertainty in the JSON (``design_uncertainty``) and the summary's words."""
+    parts = {name: part["design_uncertainty"] for name, part in diag.doc["noise_parts"].items()}
+    diag.doc["design_uncertainty"] = {"dimensions_mm": floor.uncertain, "not_read": list(floor.short),
+                                      "floor_rms": parts}
+    dims = ", ".join(f"{k} +-{v:g} mm" for k, v in floor.uncertain.items())
+    said = "; ".join(f"{name} {value:.3g} RMS" for name, value in parts.items() if value > 0)
+    note = (f"The design's stated uncertainty ({dims}; one free FE run each, the modulus left to absorb what it "
+            f"can) is carried into the noise as a floor: {said or 'nothing on these recordings'}"
+            + (f"; {', '.join(floor.short)} gave too short a run to read" if floor.short else "") + ".")
+    diag.doc["calibration"]["notes"].append(note)
+    diag.doc["summary"] = f"{diag.doc['summary']} {note}"

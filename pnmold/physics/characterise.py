@@ -44,7 +44,7 @@ import json
 import logging
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -56,6 +56,7 @@ from pnmold.errors import SolveError
 from pnmold.fsutil import write_json
 from pnmold.physics.characterisation import CURVES, Characterisation, characterisation_from_steps, distinct_steps
 from pnmold.physics.identify import bottom_line, identify_compliance
+from pnmold.physics.uncertainty import UNCERTAIN_PREFIX, moved_design, uncertainty_keys
 from pnmold.tetmesh import MeshSize
 
 log = logging.getLogger(__name__)
@@ -153,20 +154,37 @@ def stiffening_ladder(design: Design, *, size: MeshSize | None = None,
     Why: a design whose free run ends at a pressure maximum cannot show, by a factor on its own law, a
     stiffening that moves the maximum to a larger bend; recordings past that maximum need the law of the
     stiffer rubber itself (:meth:`pnmold.physics.rom.ReducedModel.laddered`). Minutes of FE, once."""
+    return _with_runs_to_their_end(design, ladder_keys(design), size, max_pressure_kpa, progress)
+
+
+def variant_keys() -> list[str]:
+    """``effect=value`` of every variant run in :data:`VARIANTS`."""
+    return [f"{name}={value:g}" for name, values in VARIANTS.items() for value in values]
+
+
+def uncertainty_runs(design: Design, uncertain: Mapping[str, float], *, size: MeshSize | None = None,
+                     max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+                     progress: Callable[[str], None] | None = None) -> Characterisation:
+    """The characterisation with a free run (no gravity) of the design with each uncertain dimension
+    (``field -> standard uncertainty``, :func:`pnmold.physics.uncertainty.check_uncertain`) moved up by
+    it, each to its own end, kept among the variants (cached with the rest): what
+    :class:`pnmold.physics.uncertainty.DesignFloor` reads. Another geometry, so each its own mesh: a
+    minute or two of FE per dimension, once."""
+    return _with_runs_to_their_end(design, uncertainty_keys(uncertain), size, max_pressure_kpa, progress)
+
+
+def _with_runs_to_their_end(design: Design, keys: Sequence[str], size: MeshSize | None, max_pressure_kpa: float,
+                            progress: Callable[[str], None] | None) -> Characterisation:
+    """The characterisation with the variant runs ``keys`` (each to its own end), those it lacks run and cached."""
     size = replace(size or DEFAULT_SIZE, half=True)
     result = characterise(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
-    missing = [k for k in ladder_keys(design) if result.variants.get(k, {}).get("format") != VARIANT_FORMAT]
+    missing = [k for k in keys if result.variants.get(k, {}).get("format") != VARIANT_FORMAT]
     if not missing or result.source != "fe":
         return result
     say = progress or (lambda stage: None)
     result = _with_variants(result, _run_variants(design, size, missing, say, max_pressure_kpa=max_pressure_kpa))
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
-
-
-def variant_keys() -> list[str]:
-    """``effect=value`` of every variant run in :data:`VARIANTS`."""
-    return [f"{name}={value:g}" for name, values in VARIANTS.items() for value in values]
 
 
 def _run_variants(design: Design, size: MeshSize, keys: Sequence[str], say: Callable[[str], None], *,
@@ -176,21 +194,27 @@ def _run_variants(design: Design, size: MeshSize, keys: Sequence[str], say: Call
     (the :data:`VARIANTS`: the free run's pressures and a little beyond, so that variant and nominal meet
     step by step and a variant's small change is not lost in interpolating the nominal between its
     steps), or each to its own end up to ``max_pressure_kpa`` (the ladder), with why it ended (``stop``).
-    The effects change the material or the layer, not the geometry: one mesh serves them all."""
+    The effects change the material or the layer, not the geometry: one mesh serves them all. A
+    ``design:<field>=<value>`` key solves the design with that dimension moved up by the value instead,
+    on a mesh of its own (:func:`uncertainty_runs`)."""
     from pnmold.quickfe import run_fe
 
     out, first = {}, None
     for key in keys:
         name, value = key.partition("=")[0], float(key.partition("=")[2])
-        say(f"{design.name}: free bending with {name} = {value:g} (FE, no gravity)")
+        field = name.removeprefix(UNCERTAIN_PREFIX) if name.startswith(UNCERTAIN_PREFIX) else None
+        solved = moved_design(design, field, value) if field else design
+        say(f"{design.name}: free bending with {f'{field} + {value:g}' if field else f'{name} = {value:g}'} "
+            "(FE, no gravity)")
         t0 = time.perf_counter()
-        run = run_fe(design, orientation=NO_GRAVITY, effects={name: value}, pressures_kpa=pressures_kpa,
-                     max_pressure_kpa=max_pressure_kpa, size=size, mesh_of=first, keep_partial=True)
-        first = first or run
+        run = run_fe(solved, orientation=NO_GRAVITY, effects=None if field else {name: value},
+                     pressures_kpa=pressures_kpa, max_pressure_kpa=max_pressure_kpa, size=size,
+                     mesh_of=None if field else first, keep_partial=True)
+        first = first or (None if field else run)
         steps = [s.as_dict() for s in run.solution.steps]
         out[key] = {"format": VARIANT_FORMAT, "value": value, **{k: [float(s[k]) for s in steps] for k in CURVES},
                     "reason": run.solution.reason, "stop": run.solution.stop,
-                    "seconds": round(time.perf_counter() - t0, 2)}
+                    "free_length_mm": solved.free_length_mm, "seconds": round(time.perf_counter() - t0, 2)}
     return out
 
 
