@@ -6,7 +6,8 @@ piston pushes air into one side's channels, the pressure is read after each incr
 curvature from the tip and base positions (bend angle = curvature x 43 mm). The data are read
 from ``../shared/data/`` (no licence: never copied into the repository) and written as pnmold
 recordings with the metadata that says how they were measured: the bend angle over the lab's
-43 mm, the piston's volume through air. The design is the segment as built,
+43 mm, the piston's volume through air (one loading ramp that the piston drives: read by its volume,
+the model's pressure at each recorded stroke against the recorded pressure). The design is the segment as built,
 ``benchmarks/designs/marchese2015-ribbed-two-sided.toml`` (both actuated layers about the constraint, one
 driven; Table 1 of the paper, the rest assumed and stated there), with the dimensions the paper does
 not give stated with their uncertainty (:data:`UNCERTAIN_MM`, ``pnmold diagnose --uncertain``: a free FE

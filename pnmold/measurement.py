@@ -35,8 +35,10 @@ KEYS = {
     "bending_length_mm": (("bending",), "the length the bend angle was computed over (angle = curvature x "
                           "length, constant curvature assumed; default the actuator's free length, from the "
                           "clamp to the tip)"),
-    "rig": (("pv",), "volume (a piston or syringe pump sets the volume; the default) | pressure (a regulator sets "
-            "the pressure and volume_ml is the gas metered in, in standard mL at 0 degC and 101.325 kPa)"),
+    "rig": (("pv",), "volume (a piston or syringe pump sets the volume; the default: a recording of one loading "
+            "ramp, without cycles, is read by its volume, the model's pressure at each recorded volume compared with "
+            "the recorded pressure) | pressure (a regulator sets the pressure and volume_ml is the gas metered in, in "
+            "standard mL at 0 degC and 101.325 kPa)"),
     "medium": (("pv",), "water (the supplement's hydraulic test; the default) | air"),
     "air_column_ml": (("pv",), "known volume of air at atmospheric pressure between the piston (or meter) and "
                       "the actuator, e.g. the tubing and the cylinder's dead space (default 0; an unknown one is "

@@ -71,6 +71,11 @@ def _rmse(data: DataSet, z: np.ndarray, observable: str) -> float:
     return explain.rmse(np.concatenate(parts)) if parts else float("nan")
 
 
+def _residuals(data: DataSet, c: Candidate) -> list[np.ndarray]:
+    """Per series, measured minus the candidate's prediction (the observable's units)."""
+    return [s.y - np.asarray(c.fit.predictions[s.recording][s.observable], float)[s.rows] for s in data.series]
+
+
 def _full_z(fitter: Fitter, c: Candidate) -> np.ndarray:
     return zscores(fitter.data, c.fit.predictions)
 
@@ -130,7 +135,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     base, final = decision.baseline, decision.final
     notes = [*calibration_notes(final, calibration, check), *explain.left_out(recordings, left_out),
              *_extrapolation(final.fit.predictions, data, reach, final.fit.values.get("modulus_scale", 1.0))]
-    mismatch = locate(data, by_series(data, _full_z(fitter, base)))
+    mismatch = locate(data, by_series(data, _full_z(fitter, base)), residuals=_residuals(data, base))
     observable = mismatch[0]["observable"] if mismatch else data.series[0].observable
     unit = UNITS.get(observable, "")
     fit = {
@@ -145,7 +150,7 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     for cand in decision.accepted:
         name = cand.fit.hypothesis.effects[-1]
         effect = by_name[name]
-        values, spread = explain.effect_values(cand, effect)
+        values, spread = explain.effect_values(final, effect)  # as the final model holds it, with every named effect
         missing.append({
             "effect": name,
             "parameters": values,
@@ -161,7 +166,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     judged = final.predictive_z if final.predictive_z is not None else final.heldout_z
     excess = excess_sigma(float(np.sum(judged ** 2)), judged.size)  # what the verdict was judged on
     # where the final model still misses (the baseline's misfit is ``mismatch``)
-    left = locate(data, by_series(data, _full_z(fitter, final))) if decision.unexplained else []
+    left = (locate(data, by_series(data, _full_z(fitter, final)), residuals=_residuals(data, final))
+            if decision.unexplained else [])
     if decision.unexplained:  # what was named still counts; what is left is said after it
         summary = " ".join([*(m["explanation"] for m in missing),
                             explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects],
@@ -262,9 +268,10 @@ def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reac
     how they were judged. ``scale``: the calibrated modulus scale, by which the FE's pressures carry
     over to the recordings'."""
     past = _rows_where(predictions, data, "pressure_excess")
-    beyond = int(np.sum(_rows_where(predictions, data, "beyond_fe") & ~past))
+    full = _rows_where(predictions, data, "volume_excess")  # read by volume: more than the model can take
+    beyond = int(np.sum(_rows_where(predictions, data, "beyond_fe") & ~past & ~full))
     total = past.size
-    if reach is None or not (beyond or past.any()):
+    if reach is None or not (beyond or past.any() or full.any()):
         return []
     top = reach["max_pressure_kpa"]
     where = (f"{top:.4g} kPa" if abs(scale - 1.0) < 1e-6 else
@@ -278,6 +285,12 @@ def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reac
                      f"each counts by the share of its pressure the model cannot hold ({100 * share:.3g} % of the "
                      f"pressure is one standard deviation). A volume-driven rig follows the actuator past such a "
                      f"maximum; the model does not.")
+    if full.any():
+        share = data.series[0].pressure_share or PRESSURE_FORM_SHARE
+        notes.append(f"{int(full.sum())} of {total} rows read by the volume their rig set hold more than the model "
+                     f"takes up to its pressure maximum ({where}; {reach.get('reason') or 'the FE'}): each counts by "
+                     f"the share of its volume the model cannot take ({100 * share:.3g} % of the volume is one "
+                     f"standard deviation).")
     if not beyond:
         return notes
     short = reach.get("full_bend_pressure_kpa") is None and reach.get("reason")

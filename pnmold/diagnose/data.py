@@ -1,6 +1,7 @@
 """Recordings as one standardised data set: observables, noise, branches and blocks.
 
-Every recording contributes its observables (bending: tip x and z; pv: volume; force:
+Every recording contributes its observables (bending: tip x and z; pv: volume, or the pressure
+when read by the volume its rig set, :func:`pnmold.physics.protocol.read_by_volume`; force:
 force; step: the inlet pressure and, when recorded, the bend angle, the metered flow, the far
 chamber's pressure and the cavity's volume change). Each observable of each
 recording gets a noise level estimated from the data itself, so residuals of different
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pnmold.physics.protocol import read_by_volume
 from pnmold.recording import Recording
 
 #: observables a diagnosis compares, per recording kind (in the recording's units)
@@ -198,7 +200,10 @@ def pressure_form(rec: Recording, prediction: np.ndarray, branch: np.ndarray,
 
 
 def observables_of(rec: Recording) -> tuple[str, ...]:
-    """The observables a recording gives; a bending test without the tip, its bend angle."""
+    """The observables a recording gives; a bending test without the tip, its bend angle; a P-V test read
+    by its volume (:func:`pnmold.physics.protocol.read_by_volume`), its pressure."""
+    if read_by_volume(rec):
+        return ("pressure_kpa",)
     found = tuple(c for c in OBSERVABLES[rec.kind] if c in rec.columns)
     if not found and rec.kind == "bending":
         return ("bend_angle_deg",)
@@ -250,9 +255,12 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             repeats = repeat_sigma(residual, rec)
             noise = max(noise_sigma(residual, branch, floor=1e-4 * max(span, 1e-9)), repeats or 0.0)
             form = np.zeros(len(rec))
-            if repeats is None:
-                form = np.hypot(model_form_share * span,
-                                pressure_form(rec, _within_reach(baseline[i], name), branch, pressure_form_share, y))
+            if repeats is None:  # in pressure directly where the pressure is the observable (read by volume)
+                if name == "pressure_kpa" and rec.kind in QUASI_STATIC:
+                    in_pressure = pressure_form_share * np.abs(y)
+                else:
+                    in_pressure = pressure_form(rec, _within_reach(baseline[i], name), branch, pressure_form_share, y)
+                form = np.hypot(model_form_share * span, in_pressure)
             # the design's own uncertainty is not in the rig's repeats: it stays whatever they say
             design = np.asarray(design_form[i].get(name, 0.0) if design_form else 0.0, float) * np.ones(len(rec))
             form, design = form[rows], design[rows]

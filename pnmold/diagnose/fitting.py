@@ -18,6 +18,8 @@ from pnmold.errors import SolveError
 
 from .data import PRESSURE_FORM_SHARE, DataSet
 
+#: a prediction's shares of a row out of the model's reach (its pressure; read by volume, its volume)
+REACH = ("pressure_excess", "volume_excess")
 #: z-score given to rows the model could not predict
 FAILED_Z = 1e4
 #: start points optimised from (more are screened by their misfit first)
@@ -76,15 +78,16 @@ def zscores(data: DataSet, predictions: list[dict[str, np.ndarray]]) -> np.ndarr
     cannot reach because its pressure lies past the model's pressure maximum (the prediction's
     ``pressure_excess``, a share of the row's pressure; its prediction the state at the maximum)
     adds that share over the model's form error in pressure, in quadrature: continuous at the
-    maximum, and growing with how far out of reach the row is."""
+    maximum, and growing with how far out of reach the row is. A row read by its volume past the volume
+    the model can take (``volume_excess``, a share of the row's volume) counts alike."""
     out = []
     for s in data.series:
         pred = predictions[s.recording]
         f = np.asarray(pred[s.observable], float)[s.rows]
         z = (s.y - f) / s.sigma
-        if "pressure_excess" in pred:
-            reach = np.asarray(pred["pressure_excess"], float)[s.rows] / (s.pressure_share or PRESSURE_FORM_SHARE)
-            z = np.where(z < 0, -1.0, 1.0) * np.hypot(z, reach)
+        excess = sum(np.asarray(pred[k], float)[s.rows] for k in REACH if k in pred)
+        if not np.isscalar(excess):
+            z = np.where(z < 0, -1.0, 1.0) * np.hypot(z, excess / (s.pressure_share or PRESSURE_FORM_SHARE))
         out.append(z)
     return np.concatenate(out)
 

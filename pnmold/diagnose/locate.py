@@ -1,4 +1,4 @@
-"""Where the calibrated baseline misses: observable, pressure (or time) window, cycle, phase.
+"""Where the calibrated baseline misses: observable, pressure (time, or the volume a rig set) window, cycle, phase.
 
 The baseline's z-scores (residual / noise) of each series are scanned with windows of
 contiguous pressure (or time) within each cycle and phase; a window's significance is its
@@ -9,6 +9,8 @@ windows that do not overlap are reported, strongest first.
 from __future__ import annotations
 
 import numpy as np
+
+from pnmold.physics.protocol import read_by_volume
 
 from .data import DataSet
 
@@ -21,6 +23,8 @@ def _axis(data: DataSet, i: int) -> tuple[str, str, np.ndarray]:
     rec = data.recordings[i]
     if rec.kind == "step":
         return "time_s", "s", np.asarray(rec.columns["time_s"], float)
+    if read_by_volume(rec):  # the rig set the volume: its rows are where they are by their volume
+        return "volume_ml", "mL", np.asarray(rec.columns["volume_ml"], float)
     return "pressure_kpa", "kPa", np.asarray(rec.columns["pressure_kpa"], float)
 
 
@@ -46,10 +50,14 @@ def _groups(data: DataSet, i: int) -> list[tuple[dict, np.ndarray]]:
     return out
 
 
-def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3) -> list[dict]:
-    """The strongest non-overlapping windows of misfit, as CONTRACTS §6 ``mismatch`` entries."""
+def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3,
+           residuals: list[np.ndarray] | None = None) -> list[dict]:
+    """The strongest non-overlapping windows of misfit, as CONTRACTS §6 ``mismatch`` entries. ``residuals``:
+    per series, measured minus predicted in the observable's units, said as the window's mean (default z x
+    noise; a row out of the model's reach has a z-score beyond its residual, see :func:`.fitting.zscores`)."""
     found = []
-    for s, z in zip(data.series, z_by_series, strict=True):
+    residuals = residuals or [z * s.sigma for s, z in zip(data.series, z_by_series, strict=True)]
+    for s, z, res in zip(data.series, z_by_series, residuals, strict=True):
         axis, unit, x = _axis(data, s.recording)
         x = x[s.rows]  # the rows the series kept
         span = float(np.ptp(x)) or 1.0
@@ -64,7 +72,7 @@ def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3) -> list
                         continue
                     chi2 = float(np.sum(z[sel] ** 2))
                     sig = (chi2 - sel.size) / np.sqrt(2.0 * sel.size)
-                    mean = float(np.mean(z[sel] * s.sigma[sel]))
+                    mean = float(np.mean(res[sel]))
                     found.append((sig, s, axis, unit, float(x[sel].min()), float(x[sel].max()), labels, mean))
     found.sort(key=lambda f: -f[0])
     out: list[dict] = []

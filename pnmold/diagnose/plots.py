@@ -8,7 +8,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from pnmold.physics.protocol import read_by_volume
+
 from .core import Diagnosis
+from .fitting import REACH
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -17,15 +20,19 @@ if TYPE_CHECKING:
 def _x(rec) -> tuple[np.ndarray, str]:
     if rec.kind == "step":
         return np.asarray(rec.columns["time_s"], float), "time (s)"
+    if read_by_volume(rec):
+        return np.asarray(rec.columns["volume_ml"], float), "volume set by the rig (mL)"
     return np.asarray(rec.columns["pressure_kpa"], float), "pressure (kPa)"
 
 
 def _residuals(panel, x: np.ndarray, s, pred: dict[str, np.ndarray], color: str, label: str) -> None:
     """Measured minus predicted, in the observable's units. A row past the model's pressure maximum
-    (its prediction the state at the maximum; the fit also counts the pressure it cannot hold, which
-    is not a residual of this observable) is drawn as a cross."""
+    (its prediction the state at the maximum; the fit also counts the pressure, or the volume, it cannot
+    hold, which is not a residual of this observable) is drawn as a cross."""
     r = s.y - np.asarray(pred[s.observable], float)[s.rows]
-    past = np.asarray(pred.get("pressure_excess", np.zeros(len(pred[s.observable]))), float)[s.rows] > 0
+    past = np.zeros(s.rows.size, bool)
+    for key in REACH:
+        past |= np.asarray(pred.get(key, np.zeros(len(pred[s.observable]))), float)[s.rows] > 0
     panel.plot(x[~past], r[~past], ".", ms=3, color=color, label=label)
     if past.any():
         panel.plot(x[past], r[past], "x", ms=4, color=color,

@@ -5,6 +5,14 @@ measurement, the pressures in time order, the orientation, and where known the t
 cycle and phase of each row. History effects (``mullins``, ``viscoelasticity``) read the
 order, the cycles and the time; without ``time_s`` the time is the pressure travelled
 divided by ``rate_kpa_per_s`` (no rate: quasi-static).
+
+A P-V test whose rig sets the volume (a piston or syringe pump) over one loading ramp is *read by
+its volume* (:func:`read_by_volume`): the rig sets the volume exactly and the pressure is what it
+measures, so the model is asked for the pressure at each recorded volume (its ``volume_ml``), not
+the volume at each recorded pressure. Near a pressure plateau (a limit point, a snap) a step of
+volume moves the pressure little; read by pressure, the same rows would be a wall of volume the
+model could only place by the pressure's own scatter. A recording with cycles stays read by
+pressure: the history effects follow its time order.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ class Protocol:
     phase: np.ndarray | None = None
     rate_kpa_per_s: float | None = None
     measurement: Measurement = Measurement()  # how the recording reads the model (pnmold.measurement)
+    volume_ml: np.ndarray | None = None  # the recorded volumes of a test read by its volume (read_by_volume)
 
     def __post_init__(self) -> None:
         if self.kind not in QUASI_STATIC_KINDS:
@@ -43,7 +52,7 @@ class Protocol:
         if p.ndim != 1 or p.size == 0 or not np.all(np.isfinite(p)):
             raise DesignError("protocol.pressure_kpa", "needs a 1-D sequence of finite pressures")
         object.__setattr__(self, "pressure_kpa", p)
-        for name in ("time_s", "cycle", "phase"):
+        for name in ("time_s", "cycle", "phase", "volume_ml"):
             value = getattr(self, name)
             if value is not None and len(value) != p.size:
                 raise DesignError(f"protocol.{name}", f"has {len(value)} rows, the pressures {p.size}")
@@ -52,6 +61,11 @@ class Protocol:
 
     def __len__(self) -> int:
         return int(self.pressure_kpa.size)
+
+    @property
+    def by_volume(self) -> bool:
+        """The model is read at the recorded volumes (``volume_ml``), the pressure its prediction."""
+        return self.volume_ml is not None
 
     @classmethod
     def from_pressures(cls, kind: str, pressures_kpa: Sequence[float], cycles: int = 1,
@@ -97,7 +111,8 @@ class Protocol:
         return cls(recording.kind, np.asarray(cols["pressure_kpa"], float), recording.orientation,
                    None if get("time_s") is None else np.asarray(get("time_s"), float),
                    None if get("cycle") is None else np.asarray(get("cycle"), int),
-                   get("phase"), recording.rate_kpa_per_s, recording.measurement)
+                   get("phase"), recording.rate_kpa_per_s, recording.measurement,
+                   np.asarray(cols["volume_ml"], float) if read_by_volume(recording) else None)
 
     def times_s(self) -> np.ndarray | None:
         """Time of each row: ``time_s``, else pressure travelled / rate, else None (quasi-static)."""
@@ -107,3 +122,18 @@ class Protocol:
             p = self.pressure_kpa
             return np.concatenate([[0.0], np.cumsum(np.abs(np.diff(p)))]) / self.rate_kpa_per_s
         return None
+
+
+def read_by_volume(recording) -> bool:
+    """A P-V recording whose rig sets the volume (metadata ``rig: volume``, the default) over one loading
+    ramp: no deflation, no second cycle, the volume never falling. Its model is read at the recorded
+    volumes (see the module docstring)."""
+    cols = recording.columns
+    if recording.kind != "pv" or recording.measurement.rig != "volume" or "volume_ml" not in cols:
+        return False
+    cycle, phase = cols.get("cycle"), cols.get("phase")
+    if cycle is not None and len(set(np.asarray(cycle, int).tolist())) > 1:
+        return False
+    if phase is not None and any(str(ph) != "inflate" for ph in phase):
+        return False
+    return bool(np.all(np.diff(np.asarray(cols["volume_ml"], float)) >= 0))

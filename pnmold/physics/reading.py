@@ -14,6 +14,11 @@
   ``dV + (V_c0 + V_a) p / (p_atm + p)``. With air metered in by a regulator (standard mL at 0 degC,
   101.325 kPa): ``((p_atm + p)(V_c0 + V_a + dV) - p_atm (V_c0 + V_a)) / p_std x T_std / T``.
   V_a = the recording's ``air_column_ml`` + the ``dead_volume`` effect.
+- **Read by volume.** A rig that sets the volume over one loading ramp is asked for the pressure at
+  each recorded volume (:func:`at_volumes`): the model's curve along rising pressure, its volume
+  read as above, inverted. A volume past the model's reach (its pressure maximum: the FE's curve
+  ends there) gets the state at the maximum and the share of its volume the model cannot take
+  (``volume_excess``; a stiffer rubber does not help there: its volumes at the maximum are the same).
 
 Pure functions on arrays: no FE, no files.
 """
@@ -67,3 +72,43 @@ def read_volume(volume_change_ml: np.ndarray, cavity_rest_ml: float, pressure_kp
     if m.rig == "volume":
         return volume_change_ml + gas * p / (P_ATM_KPA + p)
     return ((P_ATM_KPA + p) * (gas + volume_change_ml) - P_ATM_KPA * gas) / P_ATM_KPA * T_STD_K / T_LAB_K
+
+
+def at_volumes(curve: Mapping[str, np.ndarray], volume_ml: np.ndarray) -> dict[str, np.ndarray]:
+    """The model's ``curve`` (columns along rising pressure: ``pressure_kpa``, ``volume_ml`` as the rig reads
+    it, ``pressure_excess`` > 0 where the model has no equilibrium) read at the recorded ``volume_ml``.
+
+    Every column is interpolated along the volume over the curve's reachable part (up to its first row
+    without an equilibrium, the volume kept rising). Past its last volume: where the curve ends at the
+    model's pressure maximum, the state there, with ``volume_excess`` the share of the row's volume the
+    model cannot take (1 - V_top / V; ``pressure_excess`` is 0: every row is read at a pressure the model
+    holds); where it ends only because the pressures asked stop, extrapolated
+    along its last slope. ``volume_ml`` is the recorded one."""
+    v_rec = np.asarray(volume_ml, float)
+    vol = np.asarray(curve["volume_ml"], float)
+    ok = np.isfinite(vol) & (np.asarray(curve["pressure_excess"], float) <= 0)
+    end = int(np.argmin(ok)) if not ok.all() else ok.size
+    if end < 2:
+        raise ValueError("the model's curve holds fewer than two states in reach")
+    rising = np.concatenate([[True], np.diff(np.maximum.accumulate(vol[:end])) > 0])
+    idx = np.flatnonzero(rising)
+    v = vol[idx]
+    ended = end < ok.size  # the curve stops at the model's pressure maximum
+    out: dict[str, np.ndarray] = {}
+    for key, column in curve.items():
+        col = np.asarray(column)
+        if col.ndim != 1 or col.size != vol.size or key in ("volume_ml", "pressure_excess"):
+            continue
+        y = col[idx].astype(float)
+        got = np.interp(v_rec, v, y)
+        if not ended:
+            slope = (y[-1] - y[-2]) / (v[-1] - v[-2])
+            got = np.where(v_rec > v[-1], y[-1] + slope * (v_rec - v[-1]), got)
+        out[key] = got > 0.5 if col.dtype == bool else got
+    out["volume_ml"] = v_rec.copy()
+    beyond = v_rec > v[-1]
+    out["volume_excess"] = np.where(beyond & ended, 1.0 - v[-1] / np.maximum(v_rec, v[-1]), 0.0)
+    out["pressure_excess"] = np.zeros_like(v_rec)
+    if "beyond_fe" in out:
+        out["beyond_fe"] = out["beyond_fe"] | beyond
+    return out

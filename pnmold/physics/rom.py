@@ -42,7 +42,7 @@ from pnmold.physics.characterisation import CURVES, Characterisation, distinct_s
 from pnmold.physics.characterise import LADDER_EFFECT, characterise
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.protocol import Protocol
-from pnmold.physics.reading import FRAME, read_bend, read_tip, read_volume
+from pnmold.physics.reading import FRAME, at_volumes, read_bend, read_tip, read_volume
 from pnmold.physics.response import responses, solve_stiffened
 from pnmold.physics.rod import RodLoads, RodState, solve_rod
 from pnmold.physics.section import rod_loads, slab_flexibility
@@ -251,6 +251,8 @@ class ReducedModel:
         come back as NaN instead of raising :class:`SolveError`; rows beyond the FE's pressure maximum
         (none without ``partial``: an error) carry the state at the maximum, the nearest the model
         comes, and ``pressure_excess`` > 0, the share of their pressure the model cannot hold."""
+        if protocol.by_volume:
+            return self._run_by_volume(protocol, effects, params, calibration, partial)
         values = fx.check_effects({**(effects or {}), **(params or {})}, model="rom")
         scale = _calibration(calibration or {})["modulus_scale"]
 
@@ -322,6 +324,19 @@ class ReducedModel:
             out["force_n"] = state.force_n[:-1]
         return out
 
+    def _run_by_volume(self, protocol: Protocol, effects, params, calibration, partial: bool
+                       ) -> dict[str, np.ndarray]:
+        """:meth:`run` of a protocol read by its volume (:func:`pnmold.physics.reading.at_volumes`): the model's
+        curve on a pressure grid up to :data:`VOLUME_GRID_REACH` x the recorded top, read at the recorded volumes."""
+        top = VOLUME_GRID_REACH * max(float(np.max(protocol.pressure_kpa)), 1.0)
+        grid = Protocol(protocol.kind, np.linspace(0.0, top, VOLUME_GRID_POINTS), protocol.orientation,
+                        measurement=protocol.measurement)
+        out = at_volumes(self.run(grid, effects, params, calibration, partial=True), protocol.volume_ml)
+        if not partial and np.any(out["volume_excess"] > 0):
+            raise SolveError(f"reduced model: {self.design.name} cannot take "
+                             f"{float(np.max(protocol.volume_ml)):.4g} mL: {self.characterisation.reason}")
+        return out
+
     def _past_maximum(self, p_read: np.ndarray) -> np.ndarray:
         """Per row, the share of its pressure beyond the FE's pressure maximum (1 - p_max / p, on the
         free law's pressure ``p_read``) when the characterisation ended at one, else 0: under pressure
@@ -381,6 +396,10 @@ def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
     return out
 
 
+#: the pressure grid a recording read by its volume is solved on: up to this multiple of its top recorded
+#: pressure (a model the calibration makes stiffer needs more to take the same volume), in this many points
+#: (assumed: the curve read by linear interpolation between points about 1 kPa apart)
+VOLUME_GRID_REACH, VOLUME_GRID_POINTS = 2.0, 81
 #: points along a laddered curve (shares of its final bend)
 LADDER_POINTS = 61
 #: how far past the end of ladder runs that met a bifurcation (pressure still rising) their law is
