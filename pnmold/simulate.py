@@ -96,9 +96,10 @@ def simulate(design: Design, request: SimulationRequest, *, json_path: str | Pat
     if vtu_dir is not None and request.model != "fe":
         raise UsageError("--vtu: only the FE model (--model fe) has fields to write")
     if request.model == "rom":
-        from pnmold.physics.characterise import characterise
+        from pnmold.physics.characterise import blocked_force_probe, characterise
 
-        doc = simulate_rom(design, request, characterise(design, size=_mesh_size(request, None, rom=True),
+        characterised = blocked_force_probe if request.kind == "force" else characterise
+        doc = simulate_rom(design, request, characterised(design, size=_mesh_size(request, None, rom=True),
                                                           progress=progress))
     else:
         doc = simulate_fe(design, request, vtu_dir=vtu_dir)
@@ -196,7 +197,10 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 
     effects = check_effects(dict(request.effects), model="rom")
     if characterisation is None:
-        characterisation = characterise(design, size=_mesh_size(request, rom=True))
+        from pnmold.physics.characterise import blocked_force_probe
+
+        characterised = blocked_force_probe if request.kind == "force" else characterise
+        characterisation = characterised(design, size=_mesh_size(request, rom=True))
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
                                        request.rate_kpa_per_s, request.orientation)

@@ -4,9 +4,11 @@ diagnosed as ``benchmarks/diagnose_real.py`` does: on the piston's P-V curve the
 named as ``dead_volume`` and checked against Boyle's law on the recording's own rows; the segment as
 built (both sides), with the dimensions the paper does not give stated with their uncertainty, has its
 bending curve within 10 % RMS of its measured range after calibration, strain stiffening named and
-nothing left unexplained; the one-sided design, which leaves a side out, says to check the material
+nothing left unexplained; its P-V curve, read by the piston's volume, names the air column and leaves
+nothing unexplained either; the one-sided design, which leaves a side out, says to check the material
 first and points at the design; the blocked-force recording, whose last rows lie past the model's
-pressure maximum, is diagnosed (not refused) and calibrates the same rubber."""
+pressure maximum, is diagnosed (not refused) and, on the FE-matched blocked tip, calibrates the rubber
+the bending curve found."""
 
 from __future__ import annotations
 
@@ -53,7 +55,8 @@ def diagnosed(tmp_path_factory):
         runs += [(TWO_SIDED, "two-sided bending", [paths["bending"]]),
                  (TWO_SIDED, "two-sided both", [paths["bending"], paths["pv"]]),
                  (TWO_SIDED, "as known bending", [paths["bending"]]), (TWO_SIDED, "as known pv", [paths["pv"]]),
-                 (TWO_SIDED, "as known both", [paths["bending"], paths["pv"]])]
+                 (TWO_SIDED, "as known both", [paths["bending"], paths["pv"]]),
+                 (TWO_SIDED, "as known force", [paths["force"]])]
         for design, kind, recordings in runs:
             path = out / f"{kind.replace(' ', '-')}.json"
             uncertain = REAL.UNCERTAIN_MM if kind.startswith("as known") else None
@@ -130,14 +133,32 @@ def test_the_piston_curve_read_by_its_volume_names_the_air_column_and_leaves_not
     assert abs(c30[0] / c30[1] - 1) < 0.35  # two curves, one rubber
 
 
-def test_the_blocked_force_past_the_models_maximum_is_diagnosed_and_calibrates_the_same_rubber(diagnosed):
+def test_the_blocked_force_past_the_models_maximum_is_diagnosed_not_refused(diagnosed):
     force, bend = diagnosed["force"], diagnosed["bending"]
     assert force["fit"]["observable"] == "force_n" and np.isfinite(force["fit"]["rmse_after"])
     past = [n for n in force["calibration"]["notes"] if "past the model's pressure maximum" in n]
     assert past and "rows lie past" in " ".join(past)
-    scales = [d["calibration"]["final"]["modulus_scale"] for d in (force, bend)]
-    assert abs(scales[0] - scales[1]) < 0.15 * scales[1]  # two rigs, one rubber
+    # the one-sided design leaves a side out (its bending curve wants a 2x rubber): the two rigs' rubbers are
+    # compared on the segment as known (the next test)
+    assert 1.2 < force["calibration"]["final"]["modulus_scale"] < bend["calibration"]["final"]["modulus_scale"]
     assert force["fit"]["rmse_after"] < 0.25 * 0.886  # of the largest recorded force
+
+
+def test_the_blocked_force_on_the_fes_blocked_tip_names_the_rubber_the_bending_curve_found(diagnosed):
+    """The segment as known on its blocked-force recording (another piston): the model's blocked tip is
+    matched to the FE's (the design's characterisation holds the FE's blocked probe: the gravity probe's
+    compliance alone gave 1.24x its force), and the force then calibrates the rubber the bending curve
+    found, with the same large-strain stiffening, within 5 % of the recorded force's range."""
+    force, bend = diagnosed["as known force"], diagnosed["as known bending"]
+    assert [m["effect"] for m in force["missing_physics"]] == ["strain_stiffening"], force["summary"]
+    scales = [d["calibration"]["final"]["modulus_scale"] for d in (force, bend)]
+    assert abs(scales[0] / scales[1] - 1) < 0.1
+    c30 = [d["missing_physics"][0]["parameters"]["strain_stiffening.c30_mpa"] for d in (force, bend)]
+    assert abs(c30[0] / c30[1] - 1) < 0.5
+    assert force["fit"]["rmse_after"] < 0.05 * 0.886 < force["fit"]["rmse_before"]
+    assert force["fit"]["heldout_rmse_after"] < 0.7 * force["fit"]["heldout_rmse_before"]
+    if force["unexplained"]:  # what is left is said, where
+        assert force["remaining_mismatch"] and "force_n" in force["remaining_mismatch"][0]["description"]
 
 
 def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past_the_maximum(diagnosed):
@@ -150,7 +171,7 @@ def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past
     series = diag.data.series[0]
     pred = diag.decision.baseline.fit.predictions[series.recording]
     past = np.asarray(pred["pressure_excess"])[series.rows] > 0
-    assert past.sum() == 2
+    assert 0 < past.sum() < past.size
     residual = series.y - np.asarray(pred["force_n"])[series.rows]
     lines = {ln.get_label(): ln for ln in fit_figure(diag).axes[1].get_lines()}
     np.testing.assert_allclose(lines["baseline"].get_ydata(), residual[~past])

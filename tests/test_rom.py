@@ -320,3 +320,51 @@ def test_a_repeated_row_is_the_same_equilibrium_as_alone(rom, kind):
             assert cycled[key][i] == pytest.approx(alone[key][0], rel=1e-9, abs=1e-9), (key, p[i])
     again = np.flatnonzero(p == p[3])
     assert again.size >= 2 and np.all(cycled["tip_z_mm"][again] == cycled["tip_z_mm"][again[0]])
+
+
+# -- the blocked tip, matched to the FE's probe -----------------------------------------------------
+
+def test_the_blocked_tip_is_matched_to_the_fes_probe_and_nothing_else_moves():
+    """With the FE's blocked probe in the characterisation, the model's blocked force at the probe's
+    pressure is the FE's (its tip compliance scaled once); free bending and P-V do not change; without
+    the probe the factor is 1."""
+    import dataclasses
+
+    design = load_design("fpn")
+    c = characterise(design)  # the bundled one, with the probe
+    assert c.blocked is not None and c.blocked["force_n"] > 0
+    model, raw = ReducedModel(design, c), ReducedModel(design, dataclasses.replace(c, blocked=None))
+    assert raw.blocked_compliance == 1.0 and model.blocked_compliance != pytest.approx(1.0, abs=0.01)
+    at = np.array([0.0, c.blocked["pressure_kpa"]])
+    force = model.run(Protocol("force", at, "none"), {"gravity": 0.0})["force_n"][1]
+    assert force == pytest.approx(c.blocked["force_n"], rel=1e-6)
+    unmatched = raw.run(Protocol("force", at, "none"), {"gravity": 0.0})["force_n"][1]
+    assert unmatched / force == pytest.approx(model.blocked_compliance, rel=1e-3)  # the factor is the ratio
+    for kind in ("bending", "pv"):
+        p = Protocol.ramp(kind, 30, 5, orientation="chambers_up")
+        a, b = model.run(p), raw.run(p)
+        for key in ("tip_x_mm", "tip_z_mm", "volume_ml"):
+            np.testing.assert_array_equal(a[key], b[key])
+
+
+@pytest.mark.slow
+def test_the_blocked_force_follows_the_fe_closer_with_the_probe():
+    """The FE's blocked fPN (tip on a rigid plane, no gravity) against the reduced model with and
+    without the probe: within 3 % to 10 kPa and 15 % at 30 kPa with it (the FE's force grows faster
+    toward full bend), and nearer the FE at every pressure than the gravity probe's compliance alone."""
+    import dataclasses
+
+    from pnmold.physics.characterise import DEFAULT_SIZE
+    from pnmold.quickfe import run_fe
+
+    design = load_design("fpn")
+    c = characterise(design)
+    pressures = [5.0, 10.0, 30.0]
+    fe = np.array([s.force_n for s in run_fe(design, orientation="none", kind="force", pressures_kpa=pressures,
+                                             size=DEFAULT_SIZE).solution.steps[1:]])
+    proto = Protocol("force", np.array([0.0, *pressures]), "none")
+    matched = ReducedModel(design, c).run(proto, {"gravity": 0.0})["force_n"][1:]
+    raw = ReducedModel(design, dataclasses.replace(c, blocked=None)).run(proto, {"gravity": 0.0})["force_n"][1:]
+    assert fe.size == 3 and np.all(np.diff(fe) > 0)
+    assert np.abs(matched[:2] / fe[:2] - 1).max() < 0.03 and abs(matched[2] / fe[2] - 1) < 0.15
+    assert np.all(np.abs(matched - fe) < np.abs(raw - fe))

@@ -19,11 +19,11 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
                         uncertain: Mapping[str, float] | None = None) -> Diagnosis:
     """Read and check every recording (a damaged one stops the run before anything is computed
     or written), characterise the design in the FE once (cached; templates ship theirs; its
-    stages go to ``progress``), diagnose, and write the JSON and the report folder. ``uncertain``:
-    design dimension -> its standard uncertainty in mm (a design read off a drawing): each costs a
-    free FE run once, and what it changes becomes a floor under the noise
-    (:mod:`pnmold.physics.uncertainty`)."""
-    from pnmold.physics.characterise import characterise, uncertainty_runs
+    stages go to ``progress``; with a force recording also its blocked tip), diagnose, and write the
+    JSON and the report folder. ``uncertain``: design dimension -> its standard uncertainty in mm (a
+    design read off a drawing): each costs a free FE run once, and what it changes becomes a floor under
+    the noise (:mod:`pnmold.physics.uncertainty`)."""
+    from pnmold.physics.characterise import blocked_force_probe, characterise, uncertainty_runs
     from pnmold.physics.uncertainty import DesignFloor, check_uncertain
     from pnmold.report import design_entry
 
@@ -32,6 +32,8 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     recordings = read_all(paths)
     uncertain = check_uncertain(design, uncertain or {})
     c = characterise(design, progress=progress)
+    if any(r.kind == "force" for r in recordings):  # the model's blocked tip matched to the FE's
+        c = blocked_force_probe(design, progress=progress)
     reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
              "reason": c.reason}
     floor = None

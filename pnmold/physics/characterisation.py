@@ -53,6 +53,9 @@ class Characterisation:
     source: str = "fe"
     timings_s: dict = field(default_factory=dict)
     variants: dict = field(default_factory=dict)  # "effect=value" -> {"value": v, curves...} (lists, FE)
+    #: the FE's blocked tip (a rigid plane at its rest height, no gravity) at one small pressure:
+    #: {"pressure_kpa", "force_n", "seconds"} (:func:`pnmold.physics.characterise.blocked_force_probe`), or None
+    blocked: dict | None = None
 
     def variant_runs(self, effect: str) -> list[dict[str, np.ndarray]]:
         """The FE variant runs of ``effect`` (arrays at distinct pressures, ``value``), by value."""

@@ -29,6 +29,12 @@ the fPN), while the test against 1 g stays a prediction, not a fit.
    concealed FE data and the model that diagnoses them leave the same fingerprint; the
    analytic forms stand in only for a characterisation without variants.
 
+4. **blocked** (on demand, for a blocked-force recording or simulation) -- the tip against a rigid
+   plane at its rest height, no gravity, at one small pressure (:data:`BLOCKED_PROBE_SHARE` of the
+   free run's last): the FE's blocked force to first order, which the reduced model's tip compliance
+   is scaled to match (the gravity probe's compliance, identified under a distributed load, gave a
+   blocked tip force 1.2x the FE's on the ribbed segment of the README's worked example).
+
 Results are cached as JSON in the user's cache directory (:func:`cache_dir`; ``PNMOLD_CACHE``
 overrides the folder), keyed by the design digest, the mesh size and the pressure limit. A
 cached file without the variants gains them on first use (the two solves above are not
@@ -76,6 +82,9 @@ VARIANT_FORMAT = 2  # at the free run's pressures; older runs are re-done
 #: the C30 that carries the ribbed segment of the worked example to its 72 degrees)
 LADDER_C30_PER_C10 = (0.001, 0.0025, 0.006)
 LADDER_EFFECT = "strain_stiffening.c30_mpa"
+#: the blocked-tip probe's pressure, a share of the free run's last (assumed: the FE's blocked force of the
+#: ribbed segment per kPa was 0.0069 N at 2 kPa and 0.0076 N at 5 kPa of its 17.5, so a twentieth is linear)
+BLOCKED_PROBE_SHARE = 0.05
 #: the templates' characterisations (default mesh and pressure limit), read when the cache has none
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "data" / "characterisations"
 
@@ -155,6 +164,29 @@ def stiffening_ladder(design: Design, *, size: MeshSize | None = None,
     stiffening that moves the maximum to a larger bend; recordings past that maximum need the law of the
     stiffer rubber itself (:meth:`pnmold.physics.rom.ReducedModel.laddered`). Minutes of FE, once."""
     return _with_runs_to_their_end(design, ladder_keys(design), size, max_pressure_kpa, progress)
+
+
+def blocked_force_probe(design: Design, *, size: MeshSize | None = None,
+                        max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+                        progress: Callable[[str], None] | None = None) -> Characterisation:
+    """The characterisation with the FE's blocked tip force at one small pressure (``blocked``): the tip
+    against a rigid frictionless plane at its rest height, no gravity, at :data:`BLOCKED_PROBE_SHARE` of the
+    free run's last pressure, where the force is still linear in it. One FE step (seconds), once, cached."""
+    from pnmold.quickfe import run_fe
+
+    size = replace(size or DEFAULT_SIZE, half=True)
+    result = characterise(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
+    if result.blocked is not None or result.source != "fe":
+        return result
+    p = BLOCKED_PROBE_SHARE * result.max_pressure_kpa
+    (progress or (lambda stage: None))(f"{design.name}: blocked tip at {p:.3g} kPa (FE, no gravity)")
+    t0 = time.perf_counter()
+    run = run_fe(design, orientation=NO_GRAVITY, kind="force", pressures_kpa=[p], size=size)
+    step = run.solution.steps[-1]
+    result = replace(result, blocked={"pressure_kpa": float(step.pressure_kpa), "force_n": float(step.force_n),
+                                      "seconds": round(time.perf_counter() - t0, 2)})
+    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
+    return result
 
 
 def variant_keys() -> list[str]:

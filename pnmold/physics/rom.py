@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pnmold import effects as fx
-from pnmold.conventions import gravity_direction
+from pnmold.conventions import NO_GRAVITY, gravity_direction
 from pnmold.design import Design
 from pnmold.errors import DesignError, RodError, SolveError
 from pnmold.physics.characterisation import CURVES, Characterisation, distinct_steps
@@ -128,6 +128,10 @@ class ReducedModel:
         self.ladder = [{**{k: getattr(c, k) for k in CURVES}, "value": 0.0, "stop": "pressure_maximum"}, *rungs
                        ] if rungs else []
         self._laddered: dict[float, ReducedModel] = {}
+        #: the hinges' compliance under a blocked tip, a multiple of the gravity probe's: the model's blocked
+        #: force at the FE's blocked probe over the FE's (1 without the probe; :meth:`_blocked_factor`)
+        self.blocked_compliance = 1.0
+        self.blocked_compliance = self._blocked_factor()
 
     @classmethod
     def for_design(cls, design: Design, characterisation: Characterisation | None = None) -> ReducedModel:
@@ -160,6 +164,18 @@ class ReducedModel:
                 self._laddered.clear()
             self._laddered[c30_mpa] = ReducedModel(self.design, _ladder_characterisation(self, c30_mpa))
         return self._laddered[c30_mpa]
+
+    def _blocked_factor(self) -> float:
+        """The model's blocked tip force over the FE's at the characterisation's blocked probe (the same
+        pressure, no gravity): to first order in the pressure the force is the free tip's travel over the
+        tip's flexibility under a tip load, so scaling the hinges' compliance by it makes the two agree
+        there. 1 without the probe."""
+        probe = self.characterisation.blocked
+        if not probe or probe["force_n"] <= 0:
+            return 1.0
+        p = np.array([0.0, probe["pressure_kpa"]])
+        force = float(self.run(Protocol("force", p, NO_GRAVITY), {"gravity": 0.0})["force_n"][1])
+        return force / probe["force_n"] if force > 0 else 1.0
 
     # -- the terms ----------------------------------------------------------------------------------
     def contact_pressure_kpa(self, gap_scale: float = 1.0) -> float:
@@ -289,6 +305,8 @@ class ReducedModel:
         angle = _interp(t.p, t.angle, p_bend)
         length = _interp(t.p, t.length, p_bend) * np.where(self.free_edge, stretch[:, None], 1.0)
         comp = _interp(t.p, t.compliance, p_bend, extrapolate=False) * (soft / (stiff * ratio))[:, None]
+        if protocol.kind == "force":
+            comp = comp * self.blocked_compliance
         dhinge = np.diff(_slope(t.p, t.angle, p_bend), axis=1, prepend=0.0) * soft[:, None]  # rad per kPa of p_eff
         k_contact = v("self_contact")
         if k_contact > 0:
@@ -452,7 +470,7 @@ def _ladder_characterisation(model: ReducedModel, c30_mpa: float) -> Characteris
                 f"the FE's runs end where their path meets a critical point (their pressure still rising): "
                 f"{p:.4g} kPa at {b:.1f} deg bend ({runs})"),
         mesh=c.mesh, rod_x_mm=x, rod_angle_rad=rows(angle) * scale[:, None], rod_length_mm=rows(length),
-        compliance_rad_per_n_mm=rows(comp), source="ladder")
+        compliance_rad_per_n_mm=rows(comp), source="ladder", blocked=c.blocked)
 
 
 def _even_rod(design: Design, c: Characterisation):
