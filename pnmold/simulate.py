@@ -205,7 +205,8 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
                                        request.rate_kpa_per_s, request.orientation)
     out, past = _run_to_maximum(model, protocol, effects)
-    keys = [*_STEP_KEYS, *(["force_n"] if request.kind == "force" else [])]
+    # a P-V row also carries the volume the rig reads (the reduced model's dead volume and air in it)
+    keys = [*_STEP_KEYS, *({"force": ["force_n"], "pv": ["volume_ml"]}.get(request.kind, []))]
     steps = [{k: round(float(out[k][i]), 6) for k in keys} for i in range(len(protocol))]
     if request.cycles > 1:
         for i, s in enumerate(steps):
@@ -272,8 +273,9 @@ def recording_columns(doc: dict[str, Any]) -> dict[str, np.ndarray]:
     if doc["kind"] == "bending":
         for k in ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg"):
             out[k] = col[k]
-    elif doc["kind"] == "pv":
-        out["volume_ml"] = col["cavity_volume_ml"] - col["cavity_volume_ml"][0]  # injected volume
+    elif doc["kind"] == "pv":  # the volume the rig reads (the reduced model's), else the cavity's change (FE)
+        cavity = col["cavity_volume_ml"] - col["cavity_volume_ml"][0]
+        out["volume_ml"] = col.get("volume_ml", cavity)
         out["pressure_kpa"] = col["pressure_kpa"]
     else:
         out["pressure_kpa"] = col["pressure_kpa"]

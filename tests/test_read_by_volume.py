@@ -90,3 +90,21 @@ def test_a_piston_ramp_with_a_scattered_pressure_names_its_air_column(tmp_path):
     assert d["missing_physics"][0]["parameters"]["dead_volume"] == pytest.approx(120.0, rel=0.05)
     assert d["calibration"]["final"]["modulus_scale"] == pytest.approx(0.9, rel=0.05)
     assert d["fit"]["observable"] == "pressure_kpa" and "volume_ml" in d["mismatch"][0]["window"]
+
+
+def test_a_simulated_pv_recording_holds_the_volume_its_rig_reads(tmp_path):
+    """``pnmold simulate --model rom --kind pv --effects dead_volume=V --recording``: the recording's volume
+    is the rig's reading, the cavity's change plus the trapped air's compression (water rig: V p / (p_atm + p)),
+    so that a diagnosis of it can find the air (it was the cavity's change alone)."""
+    from pnmold.physics.reading import P_ATM_KPA
+
+    paths = {v: tmp_path / f"pv{v}.csv" for v in (0, 4)}
+    for v, path in paths.items():
+        assert main(["simulate", "fpn", "--model", "rom", "--kind", "pv", "--pressures", "0:40:10", "--effects",
+                     f"dead_volume={v},gravity=0", "--recording", str(path), "--json", str(path.with_suffix(".json")),
+                     "--quiet"]) == 0
+    plain, trapped = (read_recording(paths[v]) for v in (0, 4))
+    p = plain["pressure_kpa"]
+    np.testing.assert_allclose(trapped["volume_ml"] - plain["volume_ml"], 4.0 * p / (P_ATM_KPA + p), atol=1e-4)
+    steps = json.loads(paths[4].with_suffix(".json").read_text())["steps"]
+    assert [s["volume_ml"] for s in steps] == pytest.approx(trapped["volume_ml"].tolist(), rel=1e-5)

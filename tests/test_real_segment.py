@@ -157,8 +157,9 @@ def test_the_blocked_force_on_the_fes_blocked_tip_names_the_rubber_the_bending_c
     assert abs(c30[0] / c30[1] - 1) < 0.5
     assert force["fit"]["rmse_after"] < 0.05 * 0.886 < force["fit"]["rmse_before"]
     assert force["fit"]["heldout_rmse_after"] < 0.7 * force["fit"]["heldout_rmse_before"]
-    if force["unexplained"]:  # what is left is said, where
+    if force["unexplained"]:  # what is left is said, where, and what of the force rig to check
         assert force["remaining_mismatch"] and "force_n" in force["remaining_mismatch"][0]["description"]
+        assert "check where the plate meets the actuator" in force["summary"]
 
 
 def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past_the_maximum(diagnosed):

@@ -171,7 +171,8 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
     if decision.unexplained:  # what was named still counts; what is left is said after it
         summary = " ".join([*(m["explanation"] for m in missing),
                             explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects],
-                                                left[0]["description"] if left else None)])
+                                                left[0]["description"] if left else None,
+                                                left[0]["observable"] if left else None)])
     elif not missing:
         summary = explain.nothing_missing(fit["heldout_rmse_after"], unit, excess)
     else:

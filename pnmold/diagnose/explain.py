@@ -124,14 +124,24 @@ def nothing_missing(rmse: float, unit: str, excess: float) -> str:
             f"(excess misfit {excess:.1f} standard deviations).")
 
 
-def unexplained(rmse: float, unit: str, excess: float, tried: list[str], where: str | None = None) -> str:
-    """``where``: the strongest window the final model still misses (a ``remaining_mismatch`` entry's words)."""
+#: observable -> what of the rig to check when structure remains there: the model's own rig, in words
+RIG_CHECKS = {"force_n": "the blocked-force rig as the model has it: a rigid frictionless plane under the tip at its "
+                         "rest height; check where the plate meets the actuator (the tip, or along its side), that the "
+                         "plate and the load cell do not give, and that nothing else holds the actuator"}
+
+
+def unexplained(rmse: float, unit: str, excess: float, tried: list[str], where: str | None = None,
+                observable: str | None = None) -> str:
+    """``where``: the strongest window the final model still misses (a ``remaining_mismatch`` entry's words),
+    in ``observable`` (its rig's check is said: :data:`RIG_CHECKS`)."""
+    rig = RIG_CHECKS.get(observable or "")
     return (f"Structure remains that no catalogued effect explains: the held-out error is still {rmse:.3g} "
             f"{unit}, {excess:.1f} standard deviations beyond the noise after trying "
             f"{', '.join(tried)}" + (f"; the final model still misses here: {where}" if where else "") +
             ". Look for a cause outside the catalogue: a design that is not the "
             "actuator as built (a wall, layer or side it leaves out, sizes read off a drawing: compare "
-            "the part with design.toml), a leak, a torn wall, a mislabelled column.")
+            "the part with design.toml), a leak, a torn wall, a mislabelled column"
+            + (f"; and {rig}." if rig else "."))
 
 
 def rmse(values: np.ndarray) -> float:

@@ -79,8 +79,11 @@ def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = Non
             top.legend(fontsize=7)
             bottom.legend(fontsize=7)
     if ax is None:
-        # the summary's start, wrapped to the figure (one long line was cut off at both edges)
-        fig.suptitle(textwrap.fill(textwrap.shorten(diag.doc["summary"], 230, placeholder=" ..."), 115), fontsize=8)
+        # the summary's start, wrapped to the figure's width (one long line was cut off at both edges; at 8 pt
+        # about 14 characters an inch)
+        width = max(40, int(14 * fig.get_figwidth()))
+        fig.suptitle(textwrap.fill(textwrap.shorten(diag.doc["summary"], 2 * width, placeholder=" ..."), width),
+                     fontsize=8)
         fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.95))
     if path is not None:
         save_figure(fig, path, dpi=110, tight=False)
