@@ -7,8 +7,8 @@ bending curve within 10 % RMS of its measured range after calibration, strain st
 nothing left unexplained; its P-V curve, read by the piston's volume, names the air column and leaves
 nothing unexplained either; the one-sided design, which leaves a side out, says to check the material
 first and points at the design; the blocked-force recording, whose last rows lie past the model's
-pressure maximum, is diagnosed (not refused) and, on the FE-matched blocked tip, calibrates the rubber
-the bending curve found."""
+pressure maximum, is diagnosed (not refused) and, on the FE-matched blocked tip with the stated
+dimensions' floor, calibrates the rubber the bending curve found and leaves nothing unexplained."""
 
 from __future__ import annotations
 
@@ -142,24 +142,31 @@ def test_the_blocked_force_past_the_models_maximum_is_diagnosed_not_refused(diag
     # compared on the segment as known (the next test)
     assert 1.2 < force["calibration"]["final"]["modulus_scale"] < bend["calibration"]["final"]["modulus_scale"]
     assert force["fit"]["rmse_after"] < 0.25 * 0.886  # of the largest recorded force
+    # what is left is said, where, and what of the design and of the force rig to check
+    assert force["unexplained"] and "force_n" in force["remaining_mismatch"][0]["description"]
+    assert "not the actuator as built" in force["summary"]
+    assert "check where the plate meets the actuator" in force["summary"]
 
 
 def test_the_blocked_force_on_the_fes_blocked_tip_names_the_rubber_the_bending_curve_found(diagnosed):
     """The segment as known on its blocked-force recording (another piston): the model's blocked tip is
     matched to the FE's (the design's characterisation holds the FE's blocked probe: the gravity probe's
-    compliance alone gave 1.24x its force), and the force then calibrates the rubber the bending curve
-    found, with the same large-strain stiffening, within 5 % of the recorded force's range."""
+    compliance alone gave 1.24x its force), the stated dimensions' floor reaches the force (each moved
+    design's blocked tip: the constraint's depth and the roof move the force 10-14 % per millimetre, which
+    no modulus absorbs), and the force then calibrates the rubber the bending curve found, with the same
+    large-strain stiffening, and leaves nothing unexplained."""
     force, bend = diagnosed["as known force"], diagnosed["as known bending"]
     assert [m["effect"] for m in force["missing_physics"]] == ["strain_stiffening"], force["summary"]
+    assert force["unexplained"] is False, force["summary"]
     scales = [d["calibration"]["final"]["modulus_scale"] for d in (force, bend)]
     assert abs(scales[0] / scales[1] - 1) < 0.1
     c30 = [d["missing_physics"][0]["parameters"]["strain_stiffening.c30_mpa"] for d in (force, bend)]
-    assert abs(c30[0] / c30[1] - 1) < 0.5
-    assert force["fit"]["rmse_after"] < 0.05 * 0.886 < force["fit"]["rmse_before"]
-    assert force["fit"]["heldout_rmse_after"] < 0.7 * force["fit"]["heldout_rmse_before"]
-    if force["unexplained"]:  # what is left is said, where, and what of the force rig to check
-        assert force["remaining_mismatch"] and "force_n" in force["remaining_mismatch"][0]["description"]
-        assert "check where the plate meets the actuator" in force["summary"]
+    assert abs(c30[0] / c30[1] - 1) < 0.2
+    floor = force["design_uncertainty"]["floor_rms"]["force_n[0]"]
+    assert 0.05 * 0.886 < floor < 0.15 * 0.886  # N: 10-20 % of the recorded forces, RMS over the rows
+    assert "a blocked tip each" in force["summary"]
+    assert force["fit"]["rmse_after"] < 0.08 * 0.886 < force["fit"]["rmse_before"]
+    assert force["fit"]["heldout_rmse_after"] < 0.6 * force["fit"]["heldout_rmse_before"]
 
 
 def test_the_report_draws_residuals_in_the_observables_units_and_marks_rows_past_the_maximum(diagnosed):

@@ -4,6 +4,8 @@ command line's refusals."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -73,7 +75,7 @@ def test_a_change_of_shape_is_the_floor_after_the_best_stiffness_and_dimensions_
 
 def test_the_floor_reads_what_the_recording_reads(fpn):
     """A lab's bend over its own length and a P-V rig's volume read through the same measurement as
-    the model's; force and step recordings get none (the free run has no force)."""
+    the model's; a force recording gets none from the free runs alone (they have no blocked tip)."""
     uncertain = {"chambers.outer_wall_mm": 0.5}
     floor = DesignFloor.of(fpn, characterisation({"chambers.outer_wall_mm": law(P_FE, 1.0, 2e-3)}, fpn,
                                                  uncertain), uncertain)
@@ -87,6 +89,27 @@ def test_the_floor_reads_what_the_recording_reads(fpn):
     assert floor.rows(pv, "volume_ml", 1.0).max() > 0
     force = Recording("f.csv", "force", {"pressure_kpa": p, "force_n": 0.01 * p}, {})
     assert not floor.rows(force, "force_n", 1.0).any()
+
+
+def test_a_blocked_force_gets_the_share_each_dimension_changes_the_fes_blocked_tip(fpn):
+    """With the moved designs' blocked tips (``uncertainty_runs(blocked=True)``) a force recording's floor is
+    the shares they change the FE's blocked force, in quadrature, times each row's force; no alignment
+    (a blocked force at low pressure hardly depends on the modulus): the same at any modulus scale."""
+    uncertain = {"chambers.outer_wall_mm": 1.0, "paper.depth_mm": 1.0}
+    c = characterisation({f: law(P_FE, 1.0, 1e-3) for f in uncertain}, fpn, uncertain)
+    keys = dict(zip(sorted(uncertain), uncertainty_keys(uncertain), strict=True))
+    variants = {**c.variants, keys["chambers.outer_wall_mm"]: {**c.variants[keys["chambers.outer_wall_mm"]],
+                                                                "blocked_force_n": 0.0086},
+                keys["paper.depth_mm"]: {**c.variants[keys["paper.depth_mm"]], "blocked_force_n": 0.0105}}
+    c = dataclasses.replace(c, variants=variants, blocked={"pressure_kpa": 0.9, "force_n": 0.01})
+    floor = DesignFloor.of(fpn, c, uncertain)
+    assert floor.blocked == pytest.approx({"chambers.outer_wall_mm": -0.14, "paper.depth_mm": 0.05})
+    p = np.linspace(0.0, 30.0, 16)
+    force = Recording("f.csv", "force", {"pressure_kpa": p, "force_n": 0.02 * p}, {})
+    expected = np.hypot(0.14, 0.05) * 0.02 * p
+    assert floor.rows(force, "force_n", 1.0) == pytest.approx(expected)
+    assert floor.rows(force, "force_n", 1.6) == pytest.approx(expected)
+    assert floor.rows(bending(p), "bend_angle_deg", 1.0).max() > 0  # the free runs still read
 
 
 def test_the_floor_adds_to_the_noise_in_quadrature_and_is_reported():
@@ -128,3 +151,51 @@ def test_the_command_line_refuses_a_bad_uncertain_dimension_before_any_fe(arg, w
     out = tmp_path / "d.json"
     assert main(["diagnose", "fpn", str(rec), "--json", str(out), "--uncertain", arg]) == 2
     assert words in capsys.readouterr().err and not out.exists()
+
+
+def test_with_a_force_recording_each_moved_design_gets_its_blocked_tip_once_at_the_probes_pressure(
+        tmp_path, monkeypatch):
+    """``uncertainty_runs(blocked=True)`` solves the design's blocked tip and each moved design's at the same
+    pressure (the moved dimension in the solved design), keeps them in the cache, and runs nothing again;
+    the floor then reads the shares. (The FE is stood in for: the moved free runs and the blocked tips.)"""
+    import importlib
+    import json
+
+    from tests.test_rom_maximum import _bundled_fpn
+
+    ch = importlib.import_module("pnmold.physics.characterise")
+    design, full = _bundled_fpn()
+    monkeypatch.setenv("PNMOLD_CACHE", str(tmp_path))
+    path = ch.cache_path(design, ch.DEFAULT_SIZE, ch.DEFAULT_MAX_PRESSURE_KPA)
+    from pnmold.fsutil import write_json
+
+    write_json(path, dataclasses.replace(full, source="fe", blocked=None).to_json())
+    uncertain = {"chambers.outer_wall_mm": 0.5, "paper.depth_mm": 0.25}
+    tips = []
+
+    def fake_tip(solved, pressure_kpa, size):
+        tips.append((solved.chambers.outer_wall_mm, solved.paper.depth_mm, pressure_kpa))
+        force = 0.01 * (1.0 - 0.2 * (solved.chambers.outer_wall_mm - design.chambers.outer_wall_mm)
+                        + 0.4 * (solved.paper.depth_mm - design.paper.depth_mm))
+        return {"pressure_kpa": pressure_kpa, "force_n": force, "seconds": 0.0}
+
+    def fake_runs(solved, size, missing, say, pressures_kpa=None, max_pressure_kpa=None):
+        return {k: {"format": ch.VARIANT_FORMAT, "value": float(k.partition("=")[2]),
+                    **{c: list(v) for c, v in law(P_FE).items()}, "free_length_mm": design.free_length_mm}
+                for k in missing}
+
+    monkeypatch.setattr(ch, "_blocked_tip", fake_tip)
+    monkeypatch.setattr(ch, "_run_variants", fake_runs)
+    monkeypatch.setattr(ch, "variant_keys", lambda: [])
+    c = ch.uncertainty_runs(design, uncertain, blocked=True)
+    p = ch.BLOCKED_PROBE_SHARE * full.max_pressure_kpa
+    w, d = design.chambers.outer_wall_mm, design.paper.depth_mm
+    assert sorted(tips) == sorted([(w, d, pytest.approx(p)), (w + 0.5, d, pytest.approx(p)),
+                                   (w, d + 0.25, pytest.approx(p))])
+    stored = json.loads(path.read_text())["variants"]
+    assert {k: v["blocked_force_n"] for k, v in stored.items() if k.startswith("design:")} == pytest.approx(
+        {"design:chambers.outer_wall_mm=0.5": 0.009, "design:paper.depth_mm=0.25": 0.011})
+    assert DesignFloor.of(design, c, uncertain).blocked == pytest.approx(
+        {"chambers.outer_wall_mm": -0.1, "paper.depth_mm": 0.1})
+    ch.uncertainty_runs(design, uncertain, blocked=True)
+    assert len(tips) == 3  # cached: nothing runs again

@@ -32,13 +32,15 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     recordings = read_all(paths)
     uncertain = check_uncertain(design, uncertain or {})
     c = characterise(design, progress=progress)
-    if any(r.kind == "force" for r in recordings):  # the model's blocked tip matched to the FE's
+    force = any(r.kind == "force" for r in recordings)
+    if force:  # the model's blocked tip matched to the FE's
         c = blocked_force_probe(design, progress=progress)
     reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
              "reason": c.reason}
     floor = None
     if uncertain:
-        floor = DesignFloor.of(design, uncertainty_runs(design, uncertain, progress=progress), uncertain)
+        floor = DesignFloor.of(design, uncertainty_runs(design, uncertain, blocked=force, progress=progress),
+                               uncertain)
 
     def design_floor(scale: float) -> list[dict]:
         return floor.per_recording(recordings, observables_of, scale)
@@ -69,8 +71,9 @@ def _say_floor(diag: Diagnosis, floor) -> None:
                                       "floor_rms": parts}
     dims = ", ".join(f"{k} +-{v:g} mm" for k, v in floor.uncertain.items())
     said = "; ".join(f"{name} {value:.3g} RMS" for name, value in parts.items() if value > 0)
-    note = (f"The design's stated uncertainty ({dims}; one free FE run each, the modulus left to absorb what it "
-            f"can) is carried into the noise as a floor: {said or 'nothing on these recordings'}"
+    tip = ", and a blocked tip each" if floor.blocked else ""
+    note = (f"The design's stated uncertainty ({dims}; one free FE run each{tip}, the modulus left to absorb what "
+            f"it can) is carried into the noise as a floor: {said or 'nothing on these recordings'}"
             + (f"; {', '.join(floor.short)} gave too short a run to read" if floor.short else "") + ".")
     diag.doc["calibration"]["notes"].append(note)
     diag.doc["summary"] = f"{diag.doc['summary']} {note}"

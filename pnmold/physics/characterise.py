@@ -172,21 +172,26 @@ def blocked_force_probe(design: Design, *, size: MeshSize | None = None,
     """The characterisation with the FE's blocked tip force at one small pressure (``blocked``): the tip
     against a rigid frictionless plane at its rest height, no gravity, at :data:`BLOCKED_PROBE_SHARE` of the
     free run's last pressure, where the force is still linear in it. One FE step (seconds), once, cached."""
-    from pnmold.quickfe import run_fe
-
     size = replace(size or DEFAULT_SIZE, half=True)
     result = characterise(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
     if result.blocked is not None or result.source != "fe":
         return result
     p = BLOCKED_PROBE_SHARE * result.max_pressure_kpa
     (progress or (lambda stage: None))(f"{design.name}: blocked tip at {p:.3g} kPa (FE, no gravity)")
-    t0 = time.perf_counter()
-    run = run_fe(design, orientation=NO_GRAVITY, kind="force", pressures_kpa=[p], size=size)
-    step = run.solution.steps[-1]
-    result = replace(result, blocked={"pressure_kpa": float(step.pressure_kpa), "force_n": float(step.force_n),
-                                      "seconds": round(time.perf_counter() - t0, 2)})
+    result = replace(result, blocked=_blocked_tip(design, p, size))
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
+
+
+def _blocked_tip(design: Design, pressure_kpa: float, size: MeshSize) -> dict[str, float]:
+    """The FE's blocked tip (a rigid frictionless plane at its rest height, no gravity) at one pressure."""
+    from pnmold.quickfe import run_fe
+
+    t0 = time.perf_counter()
+    run = run_fe(design, orientation=NO_GRAVITY, kind="force", pressures_kpa=[pressure_kpa], size=size)
+    step = run.solution.steps[-1]
+    return {"pressure_kpa": float(step.pressure_kpa), "force_n": float(step.force_n),
+            "seconds": round(time.perf_counter() - t0, 2)}
 
 
 def variant_keys() -> list[str]:
@@ -195,14 +200,33 @@ def variant_keys() -> list[str]:
 
 
 def uncertainty_runs(design: Design, uncertain: Mapping[str, float], *, size: MeshSize | None = None,
-                     max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+                     max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA, blocked: bool = False,
                      progress: Callable[[str], None] | None = None) -> Characterisation:
     """The characterisation with a free run (no gravity) of the design with each uncertain dimension
     (``field -> standard uncertainty``, :func:`pnmold.physics.uncertainty.check_uncertain`) moved up by
     it, each to its own end, kept among the variants (cached with the rest): what
     :class:`pnmold.physics.uncertainty.DesignFloor` reads. Another geometry, so each its own mesh: a
-    minute or two of FE per dimension, once."""
-    return _with_runs_to_their_end(design, uncertainty_keys(uncertain), size, max_pressure_kpa, progress)
+    minute or two of FE per dimension, once. ``blocked`` (for a blocked-force recording): also the design's
+    blocked tip (:func:`blocked_force_probe`) and each moved design's at the same pressure
+    (``blocked_force_n`` in its variant; seconds each)."""
+    keys = uncertainty_keys(uncertain)
+    if blocked:
+        blocked_force_probe(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
+    result = _with_runs_to_their_end(design, keys, size, max_pressure_kpa, progress)
+    missing = [k for k in keys if k in result.variants and "blocked_force_n" not in result.variants[k]]
+    if not blocked or result.blocked is None or result.source != "fe" or not missing:
+        return result
+    size, p = replace(size or DEFAULT_SIZE, half=True), float(result.blocked["pressure_kpa"])
+    variants = dict(result.variants)
+    for key in missing:
+        field, value = key.removeprefix(UNCERTAIN_PREFIX).partition("=")[::2]
+        (progress or (lambda stage: None))(f"{design.name}: blocked tip with {field} + {value} at {p:.3g} kPa "
+                                           "(FE, no gravity)")
+        tip = _blocked_tip(moved_design(design, field, float(value)), p, size)
+        variants[key] = {**variants[key], "blocked_force_n": tip["force_n"]}
+    result = replace(result, variants=variants)
+    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
+    return result
 
 
 def _with_runs_to_their_end(design: Design, keys: Sequence[str], size: MeshSize | None, max_pressure_kpa: float,
