@@ -1,6 +1,6 @@
 """pnmold's FE against CalculiX on pnmold's exported deck of the fPN, with timings.
 
-Exports the default fPN's actuator, meshes it as the build does (``quickfe.BUILD_MESH``
+Exports the default fPN's actuator, meshes it as the build does (``design_fe.BUILD_MESH``
 unless ``--size``), solves the pressure curve with pnmold (mean-dilatation volumetric term,
 the default) and with pnmold's pointwise penalty (the volumetric term of CalculiX's C3D10),
 writes the deck of the same mesh and loads (``pnmold.export``) and runs ``ccx`` on it; prints
@@ -22,9 +22,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.cad import export_actuator_step  # noqa: E402
 from pnmold.design import load_design  # noqa: E402
+from pnmold.design_fe import BUILD_MESH, run_fe  # noqa: E402
 from pnmold.export.abaqus import DeckOptions  # noqa: E402
 from pnmold.export.calculix import compare_with_calculix, find_ccx  # noqa: E402
-from pnmold.quickfe import BUILD_MESH, run_fe  # noqa: E402
 from pnmold.tetmesh import MeshSize  # noqa: E402
 
 

@@ -11,7 +11,7 @@ case as a user would (a subprocess) and the result is scored: detection, correct
 named first, false claims on null cases, held-out RMSE ratio, parameter error, seconds.
 
 Signal-to-noise: the noise is set from the hidden effect's signature on the observables
-*after* recalibrating the modulus (what recalibration cannot absorb, DIAGNOSE.md): on the
+*after* recalibrating the modulus (what recalibration cannot absorb, docs/diagnosis.md): on the
 observable it affects most, the signature's RMS over the recording is ``snr`` (drawn in
 [4, 12]) times the noise's standard deviation; the other observables get the same noise
 relative to their range.

@@ -52,7 +52,7 @@ def concealed_run(design_ref: str, share: float, scale: float, folder: Path) -> 
         doc = json.loads(path.read_text())
         if (doc["design"], doc["share"], doc["scale"]) == (design_ref, share, scale):
             return doc
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     design = load_design(design_ref)
     m = design.material

@@ -80,7 +80,7 @@ def read_rows(path: Path) -> dict[str, np.ndarray]:
 
 
 def write_recordings(out: Path) -> dict[str, Path]:
-    """The lab's data as pnmold recordings (CONTRACTS §4 with the measurement metadata)."""
+    """The lab's data as pnmold recordings (docs/recording-format.md, with the measurement metadata)."""
     data = read_rows(BENDING)
     common = {"design": "marchese2015-ribbed", "orientation": "horizontal", "source": SOURCE.replace(",", ";")}
     paths = {"bending": out / "bending.csv", "pv": out / "pv.csv"}

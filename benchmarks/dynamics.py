@@ -1,4 +1,4 @@
-"""Rapid actuation (issue #6): fPN against sPN at the same supply, and the fPN at 345 kPa
+"""Rapid actuation: fPN against sPN at the same supply, and the fPN at 345 kPa
 beside the paper's ~50 ms.
 
 1. fPN vs sPN at one supply: the time to full bend and the volume change each needs

@@ -1,4 +1,4 @@
-"""Robustness of the quick FE over the design space (issue 17): random valid designs x the
+"""Robustness of the quick FE over the design space: random valid designs x the
 library's materials x chambers up and down, each bent as ``pnmold build`` bends it.
 
 Designs are drawn at random over the sizes the design rules constrain (kind, chamber count,
@@ -6,7 +6,7 @@ length, width, height, inside and outer walls, gap, floor, bottom layer, channel
 ``pnmold.design.validate`` (through ``load_design``) refuses invalid draws, which are drawn
 again, and designs whose parts fail the gate are skipped as ``pnmold build`` would. Each
 design is built once (CAD and gate, no slicer); every material is set from
-``pnmold/materials/library.py`` (C10, C20, C30, density; ``quickfe.material_of`` adds its
+``pnmold/materials/library.py`` (C10, C20, C30, density; ``design_fe.material_of`` adds its
 elongation at break for the stretch stop).
 
 Per case it prints how the curve ended -- full bend, a named physical stop (pressure
@@ -74,7 +74,7 @@ def draw_designs(n: int, seed: int) -> list[tuple[int, list[str]]]:
 
 def material_sets(name: str) -> list[str]:
     """Design overrides that put a library material in a design (the FE then also knows
-    its elongation at break: ``quickfe.material_of``)."""
+    its elongation at break: ``design_fe.material_of``)."""
     from pnmold.materials.library import as_design_overrides, get_material
 
     return as_design_overrides(get_material(name))
@@ -83,9 +83,9 @@ def material_sets(name: str) -> list[str]:
 def run_case(case: dict, builds: str, mesh: tuple[float, float]) -> dict:
     """Bend one (design, material, orientation) as the build does; the outcome as a dict."""
     from pnmold.design import load_design
+    from pnmold.design_fe import BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe
     from pnmold.errors import SolveError
     from pnmold.mesh import MeshSize
-    from pnmold.quickfe import BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe
 
     design = load_design("fpn", case["sets"] + material_sets(case["material"]))
     step = Path(builds) / f"design{case['design']}" / "actuator.step"

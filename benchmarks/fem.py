@@ -25,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.design import load_design  # noqa: E402
-from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe  # noqa: E402
+from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe  # noqa: E402
 
 
 def _tip_at(run, pressure_kpa):

@@ -41,7 +41,7 @@ def cpu_ms(rom, protocol, repeat: int = 30) -> float:
 
 
 def compare(design, rom, step, orientation: str, max_kpa: float) -> None:
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     t0 = time.perf_counter()
     fe = run_fe(design, step_path=step, size=DEFAULT_SIZE, orientation=orientation, max_pressure_kpa=max_kpa,
@@ -58,7 +58,7 @@ def compare(design, rom, step, orientation: str, max_kpa: float) -> None:
 
 
 def blocked_force(design, rom, step, pressures) -> None:
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     t0 = time.perf_counter()
     sol = run_fe(design, step_path=step, size=DEFAULT_SIZE, kind="force", pressures_kpa=pressures).solution

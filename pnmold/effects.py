@@ -1,4 +1,4 @@
-"""The catalogue of physics effects (CONTRACTS.md §5): one composable term each, in one place.
+"""The catalogue of physics effects (docs/effects.md): one composable term each, in one place.
 
 Every effect has one physical parameter whose value 0 switches it off (``gravity`` = 1 is
 Earth's gravity), bounds that are physically plausible, the recording kinds that show it,

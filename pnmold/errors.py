@@ -1,7 +1,7 @@
 """The small error hierarchy of pnmold.
 
 Every error pnmold raises on purpose is a :class:`PnmoldError`; the command line maps the
-subclasses to exit codes (CONTRACTS.md §1): 2 for bad input (a design, the command line, a
+subclasses to exit codes (docs/cli.md): 2 for bad input (a design, the command line, a
 recording or data file), 3 for geometry, meshing or solver failures. Anything else that
 escapes is a bug: the command line prints it in one line and exits with
 :data:`EXIT_UNEXPECTED`, never 1 (the code of "a design-rule check failed").

@@ -1,15 +1,18 @@
-"""Results as pandas DataFrames, where pandas is installed (``pip install 'pnmold[pandas]'``).
+"""Results in a notebook: tables of rows as pandas DataFrames, and short summaries as HTML.
 
 pnmold's results are plain values (dicts of JSON documents, dataclasses); these turn them
 into tables for a notebook: :meth:`pnmold.fem.Solution.to_dataframe`,
-:meth:`pnmold.pipeline.BuildResult.steps_frame`, and :func:`dataframe` for anything else
-shaped as rows or columns, e.g. a simulation's ``doc["steps"]`` or a recording's ``columns``.
-pandas is imported only when a frame is asked for.
+:meth:`pnmold.pipeline.BuildResult.steps_frame`, :meth:`pnmold.simulate.Simulation.steps_frame`,
+and :func:`dataframe` for anything else shaped as rows or columns, e.g. a recording's ``columns``
+(where pandas is installed: ``pip install 'pnmold[pandas]'``; it is imported only when a frame is
+asked for). :func:`summary_html` is the small table a result shows itself as in Jupyter
+(``_repr_html_`` of a build result, a simulation and a diagnosis).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from html import escape
 from typing import TYPE_CHECKING, Any
 
 from pnmold.errors import UsageError
@@ -36,3 +39,13 @@ def dataframe(data: Sequence[Mapping[str, Any]] | Mapping[str, Any]) -> pd.DataF
     if isinstance(data, Mapping):
         return pandas.DataFrame(dict(data))
     return pandas.DataFrame.from_records(list(data))
+
+
+def summary_html(title: str, rows: Mapping[str, str], notes: Sequence[str] = (), notes_title: str = "") -> str:
+    """A result's summary as a small HTML table (``title`` above it; ``rows``: label -> value), with
+    an optional list of ``notes`` under ``notes_title``. Every string is escaped."""
+    cells = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>{escape(v)}"
+                    f"</td></tr>" for k, v in rows.items())
+    items = "".join(f"<li>{escape(n)}</li>" for n in notes)
+    return (f"<table><caption style='text-align:left'><b>{escape(title)}</b></caption>{cells}</table>"
+            + (f"<p>{escape(notes_title)}</p><ul>{items}</ul>" if items else ""))

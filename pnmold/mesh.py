@@ -58,11 +58,7 @@ class MeshQuality:
 
 def _cores(design: Design):
     """Axis-aligned boxes of the air cavity (chambers and channel), with the bore tail."""
-    c, z0 = design.chambers, design.top_z0_mm
-    boxes = [(design.cavity_x_mm(i), (-c.width_mm / 2, c.width_mm / 2), (z0, z0 + c.height_mm))
-             for i in range(c.count)]
-    w = design.channel.width_mm / 2
-    boxes.append((design.channel_x_mm, (-w, w), (z0, z0 + design.channel.height_mm)))
+    boxes = [*design.chamber_boxes_mm, design.channel_box_mm]
     r = design.inlet.diameter_mm / 2
     zc = design.inlet_axis_z_mm
     boxes.append(((design.channel_x_mm[0], design.inlet_depth_mm), (-r, r), (zc - r, zc + r)))

@@ -8,20 +8,21 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pnmold import render
-from pnmold import report as rep
-from pnmold.checklist import checklist_sections, render_markdown
-from pnmold.checks import CheckReport, check_parts
+from pnmold.checks import check_parts
+from pnmold.conventions import default_out_dir
 from pnmold.design import Design, to_toml
 from pnmold.errors import MeshingError, SolveError, UsageError
 from pnmold.fsutil import staged_dir, write_json, write_text
-from pnmold.report_html import picture_jobs, write_report
-from pnmold.version import __version__
+from pnmold.report import build_report as rep
+from pnmold.report import render
+from pnmold.report.checklist import checklist_sections, render_markdown
+from pnmold.report.html import picture_jobs, write_report
 
 if TYPE_CHECKING:
     from pnmold.tetmesh import MeshSize
@@ -78,29 +79,10 @@ class BuildResult:
 
     def _repr_html_(self) -> str:
         """The summary as a small table (Jupyter shows it for a build result)."""
-        from html import escape
+        from pnmold.frames import summary_html
 
-        rows = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>{escape(v)}"
-                       f"</td></tr>" for k, v in self._summary().items())
-        failed = "".join(f"<li>{escape(c['id'])}: {escape(str(c['message']))}</li>" for c in self.failed_checks)
-        return (f"<table><caption style='text-align:left'><b>pnmold build</b></caption>{rows}</table>"
-                + (f"<p>failed checks:</p><ul>{failed}</ul>" if failed else ""))
-
-
-def default_out_dir(design: Design) -> Path:
-    return Path("out") / design.name
-
-
-def slicer_summary(checks: list[dict[str, Any]]) -> dict[str, Any]:
-    """PrusaSlicer's estimates per mold, from the slicer findings."""
-    return {c["id"].removeprefix("print.slicer."): (c["value"] if c["passed"] else {"status": c["status"],
-            "message": c["message"]}) for c in checks if c["id"].startswith("print.slicer.")}
-
-
-def record_checks(report: dict[str, Any], checks: CheckReport) -> dict[str, Any]:
-    """``report`` with the gate's findings and the slicer's estimates (a new dict)."""
-    found = checks.as_list()
-    return {**report, "checks": found, "slicer": slicer_summary(found)}
+        failed = [f"{c['id']}: {c['message']}" for c in self.failed_checks]
+        return summary_html("pnmold build", self._summary(), failed, "failed checks:")
 
 
 def recheck(folder: str | Path, *, use_slicer: bool = True) -> dict[str, Any]:
@@ -111,9 +93,18 @@ def recheck(folder: str | Path, *, use_slicer: bool = True) -> dict[str, Any]:
     path = Path(folder) / "report.json"
     checks = check_parts(folder, use_slicer=use_slicer)
     report = json.loads(path.read_text()) if path.is_file() else {}
-    report = record_checks(report, checks)
+    report = rep.record_checks(report, checks)
     write_json(path, report)
     return report
+
+
+@contextmanager
+def _stage(name: str, timings: dict[str, float], say: Progress) -> Iterator[None]:
+    """Announce the build stage ``name`` and record its wall time in ``timings``."""
+    say(name)
+    t0 = time.perf_counter()
+    yield
+    timings[name] = round(time.perf_counter() - t0, 3)
 
 
 def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True,
@@ -121,75 +112,55 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
           fem_size: MeshSize | None = None) -> BuildResult:
     """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``).
 
-    ``fem_size`` overrides the quick FE's mesh size (default :class:`MeshSize`)."""
+    ``fem_size`` overrides the quick FE's mesh size (default :data:`pnmold.design_fe.BUILD_MESH`)."""
     from pnmold.cad import export_parts, make_parts
 
     say = progress or (lambda stage: None)
-    final = Path(out_dir) if out_dir is not None else default_out_dir(design)
+    final = Path(out_dir) if out_dir is not None else default_out_dir(design.name)
     timings: dict[str, float] = {}
-
-    def timed(stage: str, fn, *args, **kwargs):
-        say(stage)
-        t0 = time.perf_counter()
-        value = fn(*args, **kwargs)
-        timings[stage] = round(time.perf_counter() - t0, 3)
-        return value
-
     with staged_dir(final) as tmp, render.Renderer() as renderer:
-        shapes = timed("cad", make_parts, design)
-        timed("export", export_parts, shapes, tmp)
+        with _stage("cad", timings, say):
+            shapes = make_parts(design)
+        with _stage("export", timings, say):
+            export_parts(shapes, tmp)
         del shapes
         renderer.draw(picture_jobs(tmp))  # the part pictures are drawn while the checks and the FE run
         write_text(tmp / "design.toml", to_toml(design))
-        parts = timed("measure", rep.measure_parts, tmp, design.part_names)
-        report: dict[str, Any] = {
-            "schema": rep.SCHEMA,
-            "pnmold_version": __version__,
-            "design": rep.design_entry(design),
-            "versions": rep.versions(),
-            "parts": parts,
-            "checks": [],
-            "fem": {"full_bend_pressure_kpa": None, "reason": "quick FE not run",
-                    "max_pressure_kpa": None, "steps": []},
-            "pours": rep.pours(design, parts),
-            "timings_s": timings,
-        }
-        checks = timed("checks", check_parts, tmp, use_slicer=use_slicer)
-        report = record_checks(report, checks)
+        with _stage("measure", timings, say):
+            parts = rep.measure_parts(tmp, design.part_names)
+        report = rep.new_report(design, parts, timings)
+        with _stage("checks", timings, say):
+            checks = check_parts(tmp, use_slicer=use_slicer)
+        report = rep.record_checks(report, checks)
         if not fem:
             report["fem"]["reason"] = "skipped (--no-fem)"
         elif checks.failed:
             report["fem"]["reason"] = "skipped: a design-rule check failed"
         else:
-            report["fem"] = timed("fem", _quick_fe, design, tmp, fem_size)
+            with _stage("fem", timings, say):
+                report["fem"] = _quick_fe(design, tmp, fem_size)
             if report["fem"].get("stop") == "failed":  # the parts stand; the FE's reason is reported
                 say(f"quick FE failed: {report['fem']['reason']}")
         write_json(tmp / "report.json", report)
         write_text(tmp / "checklist.md", render_markdown(design, checklist_sections(design, report)))
-        timed("report", write_report, tmp, report, renderer)
+        with _stage("report", timings, say):
+            write_report(tmp, report, renderer)
         write_json(tmp / "report.json", report)  # again, with the report stage's time
     return BuildResult(design, final, report)
 
 
 def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
-    """Bend the exported actuator; write ``bending.png`` and ``fem/*.vtu``; the report's ``fem`` section."""
-    from pnmold.fe_report import bending_figure, blocked_force_report, fem_report, write_field, write_paraview
-    from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, run_fe
+    """Bend the exported actuator (:func:`pnmold.design_fe.run_fe`); its files and the report's ``fem`` section."""
+    from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, run_fe
+    from pnmold.report.fem import failed_fe_section, write_fe_section
 
     try:
         run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH,
                      options=BUILD_OPTIONS, keep_partial=True)
     except (MeshingError, SolveError) as err:  # nothing converged: no curve to report
         log.warning("quick FE failed: %s", err)
-        return {"full_bend_pressure_kpa": None, "reason": f"failed: {err}", "max_pressure_kpa": None,
-                "stop": "failed", "steps": []}
-    bending_figure(run, folder / "bending.png")
-    write_field(run, folder / "fem_field.npz")
-    section = fem_report(run)
-    section["paraview"] = write_paraview(run, folder)
-    section["blocked_force"] = blocked_force_report(run)
-    section["timings_s"] = {**run.timings_s, "blocked_force": section["blocked_force"].get("seconds")}
-    return section
+        return failed_fe_section(err)
+    return write_fe_section(run, folder)
 
 
 def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, Any]:
@@ -198,7 +169,7 @@ def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, A
     import json
     import tempfile
 
-    path = Path(out_dir or default_out_dir(design)) / "report.json"
+    path = Path(out_dir or default_out_dir(design.name)) / "report.json"
     if path.is_file():
         report = json.loads(path.read_text())
         if report.get("design", {}).get("digest") == rep.design_entry(design)["digest"]:
@@ -210,7 +181,7 @@ def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, A
 def checklist_text(design: Design, fmt: str = "md") -> str:
     """The fabrication checklist of ``design`` as Markdown (``md``) or printable HTML, with the
     quantities of its build report (:func:`report_for`)."""
-    from pnmold.checklist import render_html
+    from pnmold.report.checklist import render_html
 
     if fmt not in ("md", "html"):
         raise UsageError(f"--format: md or html, got {fmt!r}")

@@ -100,3 +100,39 @@ def plot_bending(title: str, steps: list[dict[str, Any]], shapes: list[tuple[flo
     if path is not None:
         save_figure(fig, path)
     return fig
+
+
+def plot_simulation(doc: dict[str, Any], path: str | Path | None = None, *, ax: Any = None) -> Figure:
+    """A ``pnmold.simulation/1`` document's curve: the tip's path and the bend angle against pressure
+    (bending), pressure against the volume (pv) or the force against pressure (force).
+
+    Parameters
+    ----------
+    doc : the document (:attr:`pnmold.simulate.Simulation.doc`).
+    path : also save the figure there (atomically).
+    ax : the axes to draw on (two for bending, one otherwise); default a new figure.
+    """
+    steps, kind = doc["steps"], doc["kind"]
+    fig, grid = figure_axes(ax, (1, 2 if kind == "bending" else 1), (10 if kind == "bending" else 5, 4))
+    axes = grid[0]
+    p = [s["pressure_kpa"] for s in steps]
+    if kind == "bending":
+        axes[0].plot([s["tip_x_mm"] for s in steps], [s["tip_z_mm"] for s in steps], "o-", ms=3)
+        axes[0].set_aspect("equal")
+        axes[0].set(xlabel="tip x (mm)", ylabel="tip z (mm)", title="tip path")
+        axes[1].plot(p, [s["bend_angle_deg"] for s in steps], "o-", ms=3)
+        axes[1].set(xlabel="pressure (kPa)", ylabel="bend angle (deg)", title="bend angle")
+    elif kind == "pv":
+        v = [s.get("volume_ml", s["cavity_volume_ml"] - steps[0]["cavity_volume_ml"]) for s in steps]
+        axes[0].plot(v, p, "o-", ms=3)
+        axes[0].set(xlabel="volume (mL)", ylabel="pressure (kPa)", title="pressure-volume")
+    else:
+        axes[0].plot(p, [s["force_n"] for s in steps], "o-", ms=3)
+        axes[0].set(xlabel="pressure (kPa)", ylabel="blocked force (N)", title="blocked force")
+    for a in axes:
+        a.grid(alpha=0.3)
+    if ax is None:
+        fig.suptitle(f"{doc['design']['name']}: {doc['model']} {kind}, {doc['orientation']}")
+    if path is not None:
+        save_figure(fig, path)
+    return fig

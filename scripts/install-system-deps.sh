@@ -3,8 +3,8 @@
 #
 #   python3-venv      `python3 -m venv` for the project's virtualenv
 #   libglu1-mesa ...  shared libraries the PyPI wheels of gmsh and cadquery-ocp load
-#   prusa-slicer      the real slicer behind pnmold.slicer (its CLI runs headless as is)
-#   libegl-mesa0 ...  EGL with Mesa's software renderer: pnmold.render draws the report's
+#   prusa-slicer      the real slicer behind pnmold.checks.slicer (its CLI runs headless as is)
+#   libegl-mesa0 ...  EGL with Mesa's software renderer: pnmold.report.render draws the report's
 #                     pictures with VTK off screen, without a display or a GPU
 #   chromium ...      headless browser and its WebDriver: the test of report.html opens the page
 #   calculix-ccx      CalculiX: tests/test_export.py runs pnmold's exported Abaqus/CalculiX deck

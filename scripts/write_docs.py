@@ -1,6 +1,6 @@
 """Write the generated parts of ``docs/``: ``docs/design-fields.md`` (every design field, from the
 design dataclasses' metadata) and the marked tables of ``docs/recording-format.md`` (kinds,
-columns, units and metadata keys, from :mod:`pnmold.recording`). The prose around the marked
+columns, units and metadata keys, from :mod:`pnmold.recording.format`). The prose around the marked
 tables is written by hand. ``tests/test_docs.py`` fails when a committed doc differs from what
 this writes; run it after changing a design field or the recording format.
 
@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 from pnmold.design.model import SECTIONS  # noqa: E402
 from pnmold.fsutil import write_text  # noqa: E402
 from pnmold.recording import COLUMN_DOCS, COLUMNS, METADATA_KEYS  # noqa: E402
-from pnmold.units import ABSOLUTE_UNITS, PRESSURE_UNITS, VOLUME_UNITS  # noqa: E402
+from pnmold.recording.units import ABSOLUTE_UNITS, PRESSURE_UNITS, VOLUME_UNITS  # noqa: E402
 
 DOCS = ROOT / "docs"
 #: a field name's ending -> its unit (units live in the names)

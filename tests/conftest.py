@@ -98,7 +98,7 @@ def live(tmp_path_factory):
 #: seconds of the heaviest files in a full run (2 workers on a busy machine, --durations=0): only
 #: their order matters, so a stale figure costs some balance, never a result
 FILE_SECONDS = {
-    "tests/test_quickfe.py": 1081, "tests/test_rom.py": 637, "tests/test_export.py": 594,
+    "tests/test_design_fe.py": 1081, "tests/test_rom.py": 637, "tests/test_export.py": 594,
     "tests/test_rom_families.py": 478, "tests/test_rom_spn.py": 387, "tests/test_sweep.py": 258,
     "tests/test_real_segment.py": 180, "tests/test_pneumatics.py": 132, "tests/test_diagnose.py": 120,
     "tests/test_fem_path.py": 100,

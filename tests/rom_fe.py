@@ -25,7 +25,7 @@ def rom_follows_the_fe_with_gravity(live, name: str) -> list[str]:
     """A template: the FE with 1 g chambers up against the reduced model informed by the
     gravity-off curve and the 0.35 g compliance probe: the tip within 5 % of the length at every
     FE step (``benchmarks/rom.py`` runs the same to full bend). Returns the checks that failed."""
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     design, c, step = live(name)
     fe = run_fe(design, step_path=step, size=COARSE, orientation="chambers_up",
@@ -50,7 +50,7 @@ def rom_carries_the_fe_response(live, name: str, effect: str, value: float,
     volume and tip position, within 20 % of the FE's largest change at every step; and the effect
     shows (``shows``: degrees, ml). The sPN's layer bends it less and lengthens it. Returns the
     checks that failed."""
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     design, c, step = live(name)
     fe = run_fe(design, step_path=step, size=COARSE, orientation="none", effects={effect: value},

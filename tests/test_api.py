@@ -20,7 +20,7 @@ from pnmold.pipeline import BuildResult
 
 ROOT = Path(__file__).resolve().parents[1]
 PLOT_MODULES = ("pnmold.plots", "pnmold.materials.plot", "pnmold.diagnose.plots", "pnmold.pneumatics.plot",
-                "pnmold.sweep.plot", "pnmold.render", "pnmold.fe_report", "pnmold.pipeline", "pnmold.cli")
+                "pnmold.sweep.plot", "pnmold.report.render", "pnmold.report.fem", "pnmold.pipeline", "pnmold.cli")
 
 
 def _steps(n: int = 4) -> list[dict]:
@@ -133,6 +133,29 @@ def test_a_build_result_shows_its_summary():
     assert "fit.void.top: a &lt;gap&gt;" in html and "skipped" in html  # escaped
 
 
+@pytest.mark.parametrize("kind", ["bending", "pv", "force"])
+def test_a_simulation_shows_its_summary_and_draws_its_curve(kind, tmp_path):
+    """The reduced model on a template with a shipped characterisation (no FE): the summary names the
+    design, model, rows and last row; the HTML is a table; the figure is a Figure and writes no file."""
+    from matplotlib.figure import Figure
+
+    from pnmold.simulate import SimulationRequest, parse_pressures, simulate
+
+    sim = simulate(load_design("fig-s2a-h5"), SimulationRequest(parse_pressures("0:20:5"), model="rom", kind=kind,
+                                                                effects=(("mullins", 0.2),)))
+    text = repr(sim)
+    assert text.startswith("<Simulation fig-s2a-h5 (") and f"rom, {kind}, chambers_up" in text
+    assert "5, 0 to 20 kPa" in text and len(text) < 300
+    last = sim.summary()["last row"]
+    assert last.endswith("at 20 kPa") and {"bending": "deg", "pv": "mL", "force": " N "}[kind] in last
+    assert sim.summary()["effects"] == "mullins=0.2"
+    html = sim._repr_html_()
+    assert html.startswith("<table>") and "pnmold simulate" in html and "mullins=0.2" in html
+    fig = sim.figure()
+    assert isinstance(fig, Figure) and len(fig.axes) == (2 if kind == "bending" else 1)
+    assert all(ax.lines for ax in fig.axes) and list(tmp_path.iterdir()) == []
+
+
 def test_the_fe_cache_is_the_users_unless_pnmold_cache_names_one(monkeypatch, tmp_path):
     import platformdirs
 
@@ -176,8 +199,8 @@ def test_the_linear_solver_is_pardiso_where_it_loads_else_scipy(monkeypatch):
 
 
 def test_the_build_report_names_the_linear_solver(monkeypatch):
-    from pnmold.fe_report import fem_report
     from pnmold.fem.linsolve import choose_linear_solver
+    from pnmold.report.fem import fem_report
 
     run = SimpleNamespace(solution=_solution(), orientation="chambers_up",
                           quality=SimpleNamespace(n_nodes=10, n_tets=20, min_gamma=0.3),

@@ -132,3 +132,93 @@ def test_the_library_never_imports_the_command_line():
                  if not m.startswith("pnmold.cli") and any(t.startswith("pnmold.cli") for t in targets)]
     assert offenders == []
     assert "pnmold.cli.build" in graph["pnmold.cli._main"]  # the walk sees the command line's imports
+
+
+#: the rooms of pnmold from the bottom up (docs/layout.md): a room imports only rooms below it, so data
+#: flow one way, design -> cad -> checks / mesh -> fem -> physics -> simulate / diagnose -> report
+ROOMS = [
+    ("pnmold.errors", "pnmold.version", "pnmold.fsutil"),
+    ("pnmold.conventions", "pnmold.effects", "pnmold.frames", "pnmold.plots"),
+    ("pnmold.recording",),
+    ("pnmold.materials",),
+    ("pnmold.design",),
+    ("pnmold.cad", "pnmold.checks", "pnmold.tetmesh"),
+    ("pnmold.mesh", "pnmold.fem"),
+    ("pnmold.design_fe",),
+    ("pnmold.physics", "pnmold.export"),
+    ("pnmold.pneumatics",),
+    ("pnmold.simulate", "pnmold.report"),
+    ("pnmold.diagnose", "pnmold.pipeline"),
+    ("pnmold.sweep",),
+    ("pnmold.cli",),
+    ("pnmold",),
+]
+RANK = {room: floor for floor, rooms in enumerate(ROOMS) for room in rooms}
+#: where the physics lives: none of it may reach up to what orchestrates or reports it
+PHYSICS = ("pnmold.fem", "pnmold.physics", "pnmold.pneumatics", "pnmold.materials", "pnmold.mesh", "pnmold.design_fe")
+ABOVE_PHYSICS = ("pnmold.pipeline", "pnmold.simulate", "pnmold.report", "pnmold.diagnose", "pnmold.sweep",
+                 "pnmold.cli")
+
+
+def _room(module: str) -> str:
+    return ".".join(module.split(".")[:2])
+
+
+def test_every_module_lives_in_a_known_room():
+    assert sorted({_room(m) for m in import_graph()} - set(RANK)) == []
+
+
+def test_rooms_import_only_rooms_below_them():
+    upward = sorted(f"{m} -> {t}" for m, targets in import_graph().items() for t in targets
+                    if _room(m) != _room(t) and RANK[_room(t)] >= RANK[_room(m)])
+    assert upward == []
+
+
+def test_no_physics_package_reaches_up_to_the_pipeline_or_simulate():
+    offenders = sorted(f"{m} -> {t}" for m, targets in import_graph().items() if _room(m) in PHYSICS
+                       for t in targets if _room(t) in ABOVE_PHYSICS)
+    assert offenders == []
+
+
+def test_the_rank_check_sees_an_upward_arrow():
+    assert RANK[_room("pnmold.fem.newton")] < RANK[_room("pnmold.simulate.dynamic")]
+    assert RANK[_room("pnmold.pneumatics.law")] < RANK[_room("pnmold.pipeline")]
+
+
+def test_at_most_thirteen_modules_at_the_top_of_the_package():
+    assert len(list(PACKAGE.glob("*.py"))) <= 13, sorted(p.name for p in PACKAGE.glob("*.py"))
+
+
+def test_no_module_over_450_lines():
+    long = {str(p.relative_to(PACKAGE)): n for p in PACKAGE.rglob("*.py")
+            if (n := len(p.read_text().splitlines())) > 450}
+    assert long == {}
+
+
+def _compiled(node: ast.AST) -> bool:
+    """A numba kernel (``@nb.njit``, ``@njit(...)``): compiled code, one long loop by nature."""
+    for d in getattr(node, "decorator_list", []):
+        target = d.func if isinstance(d, ast.Call) else d
+        if (getattr(target, "attr", None) or getattr(target, "id", None)) in ("njit", "jit"):
+            return True
+    return False
+
+
+def long_functions(limit: int = 80) -> dict[str, int]:
+    """``file:function`` -> lines, for every function over ``limit`` lines that is not a compiled kernel."""
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and not _compiled(node):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > limit:
+                    out[f"{path.relative_to(PACKAGE)}:{node.name}"] = lines
+    return out
+
+
+def test_no_function_over_80_lines_outside_compiled_kernels():
+    assert long_functions() == {}
+
+
+def test_the_length_check_sees_a_long_function():
+    assert long_functions(limit=60)  # some functions are between 60 and 80 lines: the walk reaches them

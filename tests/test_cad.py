@@ -7,9 +7,9 @@ import pytest
 
 from pnmold.checks import solids as S
 from pnmold.checks.mesh_checks import surface_pieces
+from pnmold.checks.stlio import load_stl
 from pnmold.design import load_design
 from pnmold.mesh import gmsh_session
-from pnmold.stlio import load_stl
 from tests.closed_form import cavity_mm3, part_volumes_mm3
 from tests.conftest import TEMPLATES
 

@@ -7,8 +7,8 @@ import re
 
 import pytest
 
-from pnmold.checklist import checklist_sections, render_html, render_markdown
 from pnmold.cli import main
+from pnmold.report.checklist import checklist_sections, render_html, render_markdown
 
 # the supplement's steps, in the order they must come
 ORDER = ["Print `print/mold_interior.stl`", "Print `print/mold_exterior.stl`", "Print `print/mold_bottom.stl`",

@@ -14,8 +14,8 @@ import trimesh
 from pnmold.checks import check_parts
 from pnmold.checks import solids as S
 from pnmold.checks.context import BuildFiles
+from pnmold.checks.stlio import load_stl
 from pnmold.cli import main
-from pnmold.stlio import load_stl
 from tests.conftest import TEMPLATES
 
 

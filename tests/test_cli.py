@@ -60,7 +60,7 @@ def test_a_failed_build_leaves_the_earlier_build_untouched(tmp_path, monkeypatch
     assert main(["build", "--out", str(out), "--no-fem", "--quiet"]) == 0
     before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
 
-    from pnmold import report
+    from pnmold.report import build_report as report
 
     def broken(*args, **kwargs):
         raise GeometryError("measure", "simulated failure after export")
@@ -178,7 +178,7 @@ def test_diagnose_and_dynamic_json_dash_reach_stdout(argv, monkeypatch, capsys):
     """The verbs hand the library no file for ``-`` and print its document themselves (the
     library calls are stand-ins here: their own tests run them)."""
     import pnmold.diagnose.run
-    import pnmold.pneumatics.study
+    import pnmold.simulate.dynamic
 
     seen = {}
 
@@ -188,7 +188,7 @@ def test_diagnose_and_dynamic_json_dash_reach_stdout(argv, monkeypatch, capsys):
         return SimpleNamespace(doc=doc, document=doc, summary=["one line"], written=[])
 
     monkeypatch.setattr(pnmold.diagnose.run, "diagnose_recordings", fake)
-    monkeypatch.setattr(pnmold.pneumatics.study, "run_step_study", fake)
+    monkeypatch.setattr(pnmold.simulate.dynamic, "run_step_study", fake)
     assert main([*argv, "--json", "-"]) == 0
     out, err = capsys.readouterr()
     assert json.loads(out)["schema"] == "stand-in" and seen == {"json_path": None}

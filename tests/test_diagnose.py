@@ -96,6 +96,21 @@ def test_report_and_json_follow_the_contract(tmp_path):
     assert (tmp_path / "report" / "fits.png").stat().st_size > 20_000
 
 
+def test_a_designs_reference_is_what_the_build_report_names_it():
+    """The diagnosis's ``design`` (:class:`pnmold.diagnose.DesignRef`) is the build report's entry, key
+    for key in the same order; what a toy leaves unstated is left out."""
+    import json
+
+    from pnmold.design import load_design
+    from pnmold.diagnose import DesignRef
+    from pnmold.report.build_report import design_entry
+
+    design = load_design("fpn")
+    assert json.dumps(DesignRef.of(design).as_json()) == json.dumps(design_entry(design))
+    assert json.dumps(DesignRef("toy", "0").as_json()) == json.dumps({"name": "toy", "digest": "0"})
+    assert DesignRef("toy", "0", "toy rubber").as_json() == {"name": "toy", "digest": "0", "material": "toy rubber"}
+
+
 def test_calibration_window_stays_inside_the_reduced_models_bounds():
     """A modulus found at (or a rounding past) the wide search's bound gives a window the
     reduced model accepts: a P-V recording of a much softer rig once ended in a DesignError."""

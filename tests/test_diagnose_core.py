@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from pnmold.diagnose import diagnose
+from pnmold.diagnose import DesignRef, DiagnosisModel, Reach, diagnose
 from pnmold.diagnose.data import noise_sigma
 from pnmold.recording import Recording
 
@@ -53,8 +53,8 @@ def forward(effects, calib):
 
 def run(rec):
     """The toy model is the truth: no form error under the noise."""
-    return diagnose({"name": "toy", "digest": "0"}, [rec], forward, EFFECTS, seed=1, model_form_share=0.0,
-                    pressure_form_share=0.0)
+    return diagnose(DesignRef("toy", "0"), [rec], DiagnosisModel(forward, EFFECTS, bootstrap_seed=1,
+                                                                  model_form_share=0.0, pressure_form_share=0.0))
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -82,6 +82,43 @@ def test_structure_no_term_explains_is_called_unexplained():
     assert diag.doc["unexplained"] is True
     # the summary points at what lies outside the catalogue, the design's own geometry first
     assert "not the actuator as built" in diag.doc["summary"] and "design.toml" in diag.doc["summary"]
+
+
+def test_a_diagnosis_shows_itself_in_one_or_two_short_lines():
+    """A notebook's cell shows the design, the recordings, the named effect with its value, the verdict
+    and the held-out error before and after, not the whole document."""
+    diag = run(recording({"sag": 1.0}, scale=0.9, noise_mm=0.2, seed=7))
+    text = repr(diag)
+    assert len(text) < 400 and text.count("\n") <= 1
+    assert text.startswith("<Diagnosis toy: bending (82 rows); named sag = ") and "unexplained no" in text
+    fit = diag.doc["fit"]
+    assert (f"held-out RMSE {fit['heldout_rmse_before']:.3g} -> {fit['heldout_rmse_after']:.3g} mm "
+            f"({fit['observable']})") in text
+
+
+def test_a_diagnosis_shows_itself_as_an_escaped_table_in_a_notebook():
+    rec = recording({"sag": 1.0}, scale=0.9, noise_mm=0.2, seed=7)
+    diag = diagnose(DesignRef("<toy & co>", "0"), [rec], DiagnosisModel(forward, EFFECTS, bootstrap_seed=1,
+                                                                         model_form_share=0.0,
+                                                                         pressure_form_share=0.0))
+    page = diag._repr_html_()
+    assert page.startswith("<table>") and "</table>" in page and "<td style='text-align:left'>sag = " in page
+    assert "&lt;toy &amp; co&gt;" in page and "<toy" not in page
+    assert "held-out RMSE" in page and "-&gt;" in page and "->" not in page  # every string escaped
+    assert "The model left out a toy term (sag)" in page  # the summary sentence
+
+
+def test_a_diagnosis_draws_its_figure_without_writing_a_file(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    monkeypatch.chdir(tmp_path)
+    diag = run(recording({"sag": 1.0}, scale=0.9, noise_mm=0.2, seed=7))
+    fig = diag.figure()
+    assert isinstance(fig, Figure) and len(fig.axes) == 2 * len(diag.data.series)
+    assert all(ax.lines for ax in fig.axes) and list(tmp_path.iterdir()) == []
+    given = Figure()
+    axes = given.subplots(2, len(diag.data.series))
+    assert diag.figure(ax=axes) is given and axes[0, 0].lines
 
 
 def test_noise_is_estimated_from_the_data():
@@ -156,13 +193,14 @@ def _reaching(top_kpa: float):
     return forward
 
 
-REACH = {"full_bend_pressure_kpa": None, "reason": "pressure maximum of the toy"}
+REASON = "pressure maximum of the toy"
 
 
 def test_rows_beyond_the_fe_are_said_at_the_recordings_pressure():
     rec = recording({}, scale=1.15, noise_mm=0.2, seed=2)
-    diag = diagnose({"name": "toy", "digest": "0"}, [rec], _reaching(32.0), EFFECTS, seed=1,
-                    reach={**REACH, "max_pressure_kpa": 32.0}, model_form_share=0.0, pressure_form_share=0.0)
+    diag = diagnose(DesignRef("toy", "0"), [rec],
+                    DiagnosisModel(_reaching(32.0), EFFECTS, reach=Reach(32.0, None, REASON), bootstrap_seed=1,
+                                   model_form_share=0.0, pressure_form_share=0.0))
     scale = diag.doc["calibration"]["final"]["modulus_scale"]
     [note] = [n for n in diag.doc["calibration"]["notes"] if "beyond the pressure the FE characterised" in n]
     expected = int(np.sum(P / scale > 32.0 * 1.01))
@@ -175,8 +213,9 @@ def test_most_rows_beyond_a_stopped_fe_are_refused_naming_the_recordings_pressur
 
     rec = recording({}, scale=1.15, noise_mm=0.2, seed=2)
     with pytest.raises(SolveError, match=r"rows need the model beyond 2[89]\.\d+ kPa of the recordings \(25 kPa"):
-        diagnose({"name": "toy", "digest": "0"}, [rec], _reaching(25.0), EFFECTS, seed=1,
-                 reach={**REACH, "max_pressure_kpa": 25.0}, model_form_share=0.0, pressure_form_share=0.0)
+        diagnose(DesignRef("toy", "0"), [rec],
+                 DiagnosisModel(_reaching(25.0), EFFECTS, reach=Reach(25.0, None, REASON), bootstrap_seed=1,
+                                model_form_share=0.0, pressure_form_share=0.0))
 
 
 def test_held_out_rows_a_fold_extrapolates_are_judged_against_the_predictions_own_spread():

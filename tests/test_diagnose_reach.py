@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pnmold.diagnose import diagnose
+from pnmold.diagnose import DesignRef, DiagnosisModel, Reach, diagnose
 from pnmold.diagnose.data import build_dataset, pressure_form
 from pnmold.recording import Recording
 from tests.test_diagnose_core import EFFECTS, PHASE, P, ToyEffect, toy
@@ -36,7 +36,8 @@ def recording(scale: float, seed: int) -> Recording:
     return Recording("toy.csv", "bending", {"pressure_kpa": P, "phase": PHASE, **cols}, {"orientation": "chambers_up"})
 
 
-REACH = {"max_pressure_kpa": TOP, "full_bend_pressure_kpa": None, "reason": "pressure maximum of the toy"}
+REACH = Reach(max_pressure_kpa=TOP, full_bend_pressure_kpa=None, reason="pressure maximum of the toy")
+TOY = DesignRef(name="toy", digest="0", material="toy rubber")
 
 
 @pytest.mark.parametrize("scale", [2.0, 2.6])
@@ -44,8 +45,8 @@ def test_a_rubber_the_recordings_pressure_needs_is_found_not_refused(scale):
     """The recordings hold 40 kPa; the design's rubber has its maximum at 21: at least 1.9x stiffer.
     Before, rows past the maximum read the law's last slope (or were left out); now they count by
     how far out of reach they are, and the material check starts at the modulus that reaches them."""
-    diag = diagnose({"name": "toy", "digest": "0", "material": "toy rubber"}, [recording(scale, 4)],
-                    lambda e, c: [toy_with_maximum(e, c)], EFFECTS, seed=1, reach=REACH)
+    diag = diagnose(TOY, [recording(scale, 4)],
+                    DiagnosisModel(lambda e, c: [toy_with_maximum(e, c)], EFFECTS, reach=REACH, bootstrap_seed=1))
     assert diag.doc["calibration"]["final"]["modulus_scale"] == pytest.approx(scale, rel=0.02)
     assert diag.named == [] and not diag.doc["unexplained"]
     check = diag.doc["calibration"]["material_check"]
@@ -74,12 +75,12 @@ def test_rows_past_the_maximum_score_their_residual_at_the_maximum_and_their_pre
 
 def test_an_effect_that_only_stands_in_for_the_modulus_is_not_named():
     """On one loading an effect that multiplies the stiffness is the modulus: when the recordings need
-    a rubber outside the window, the effect must not be named for freeing it (DIAGNOSE.md: judge a term
+    a rubber outside the window, the effect must not be named for freeing it (docs/diagnosis.md: judge a term
     only by what recalibration could not absorb); the other rubber is said instead."""
     softening = ToyEffect("softening", "s", "1", (0.0, 0.5))
-    diag = diagnose({"name": "toy", "digest": "0", "material": "toy rubber"}, [recording(2.2, 6)],
-                    lambda e, c: [toy_softening(e, c)], [*EFFECTS, softening], seed=1, model_form_share=0.0,
-                    pressure_form_share=0.0)
+    diag = diagnose(TOY, [recording(2.2, 6)],
+                    DiagnosisModel(lambda e, c: [toy_softening(e, c)], [*EFFECTS, softening], bootstrap_seed=1,
+                                   model_form_share=0.0, pressure_form_share=0.0))
     assert "softening" not in diag.named
     assert diag.doc["calibration"]["material_check"]["modulus_scale"] == pytest.approx(2.2, rel=0.02)
 

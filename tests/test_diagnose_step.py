@@ -15,8 +15,8 @@ from pnmold.cli import main
 from pnmold.design import load_design
 from pnmold.errors import RecordingError
 from pnmold.pneumatics import ActuatorLine, BendingDynamics, Orifice, Rig, StepModel, StepProtocol, simulate_step
-from pnmold.pneumatics.study import recording_metadata
 from pnmold.recording import Recording
+from pnmold.simulate.dynamic import recording_metadata
 from tests.test_pneumatics import linear_law
 
 OBSERVED = ("pressure_kpa", "flow_slpm", "bend_angle_deg")
@@ -224,7 +224,7 @@ def test_blind_step_subset_names_the_concealed_effect(case, tmp_path):
 
 
 def _check_contract(doc, report):
-    """CONTRACTS.md §6 on a step diagnosis, and its report folder."""
+    """The document (docs/json-schemas.md) of a step diagnosis, and its report folder."""
     assert doc["schema"] == "pnmold.diagnosis/1"
     for key in ("design", "recordings", "baseline", "mismatch", "missing_physics", "unexplained", "fit"):
         assert key in doc, key

@@ -117,18 +117,50 @@ def test_the_build_report_keys_are_documented(built):
     assert _undocumented(built("fpn").report) == []
 
 
-@pytest.mark.parametrize(("argv", "docs"), [
-    (["diagnose", "--help"], ["docs/recording-format.md", "docs/json-schemas.md"]),
-    (["simulate", "--help"], ["docs/recording-format.md", "docs/json-schemas.md"]),
-    (["material", "fit", "--help"], ["docs/tensile-files.md"]),
-    (["recording", "template", "--help"], ["docs/recording-format.md"]),
+@pytest.mark.parametrize(("argv", "pages"), [
+    (["diagnose", "--help"], ["recording-format", "json-schemas"]),
+    (["simulate", "--help"], ["recording-format", "json-schemas"]),
+    (["material", "fit", "--help"], ["tensile-files"]),
+    (["recording", "template", "--help"], ["recording-format"]),
 ], ids=["diagnose", "simulate", "material-fit", "recording-template"])
-def test_help_points_to_the_docs_not_to_the_contracts(argv, docs, capsys):
+def test_help_points_to_the_manual_not_to_the_contracts(argv, pages, capsys):
     assert main(argv) == 0
-    out = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
-    for doc in docs:
-        assert doc in out and (ROOT / doc).is_file()
+    out = re.sub(r"(?<=\w)-\s+(?=\w)", "-", " ".join(capsys.readouterr().out.split()))  # argparse wraps lines
+    for page in pages:
+        assert f"pnmold docs {page}" in out and (DOCS / f"{page}.md").is_file()
     assert "CONTRACTS" not in out
+
+
+def test_pnmold_docs_lists_the_pages_and_prints_one(capsys):
+    assert main(["docs"]) == 0
+    listed = {line.split()[0] for line in capsys.readouterr().out.splitlines() if line.strip()}
+    assert {p.stem for p in DOCS.glob("*.md")} <= listed
+    assert main(["docs", "recording-format"]) == 0
+    assert capsys.readouterr().out == (DOCS / "recording-format.md").read_text(encoding="utf-8")
+    assert main(["docs", "no-such-page"]) == 2
+    assert "recording-format" in capsys.readouterr().err  # the refusal lists the pages
+
+
+#: files users have: the package, the README and the manual; what the project keeps for itself is not cited
+_CITED = re.compile(r"docs/([A-Za-z0-9_-]+\.md)")
+_INTERNAL = ("CONTRACTS.md", "DIAGNOSE.md", "FEM_NOTES", "../shared")
+
+
+def _user_texts() -> dict[str, str]:
+    files = [*(ROOT / "pnmold").rglob("*.py"), ROOT / "README.md", *DOCS.glob("*.md"),
+             *(ROOT / "pnmold" / "data").glob("*.ini")]
+    return {str(p.relative_to(ROOT)): p.read_text(encoding="utf-8") for p in files}
+
+
+def test_every_document_the_code_and_docs_cite_exists():
+    missing = sorted({f"{name}: docs/{doc}" for name, text in _user_texts().items() for doc in _CITED.findall(text)
+                      if not (DOCS / doc).is_file()})
+    assert missing == []
+
+
+def test_nothing_users_read_cites_the_projects_internal_notes():
+    cited = sorted(f"{name}: {word}" for name, text in _user_texts().items() for word in _INTERNAL if word in text)
+    assert cited == []
 
 
 def test_no_help_text_mentions_the_contracts():
@@ -141,24 +173,38 @@ def test_no_help_text_mentions_the_contracts():
     assert not [t for t in texts if "CONTRACTS" in t]
 
 
-def _section(title: str) -> str:
+def test_the_readme_points_to_the_manual():
     text = (ROOT / "README.md").read_text()
-    start = text.index(f"### {title}\n")
-    return text[start:text.index("\n#", start + 4)]
-
-
-@pytest.mark.parametrize(("title", "docs"), [
-    ("Materials", ["docs/tensile-files.md", "docs/design-fields.md"]),
-    ("Lab recordings", ["docs/recording-format.md", "docs/json-schemas.md"]),
-])
-def test_the_readme_points_to_the_docs(title, docs):
-    section = _section(title)
-    for doc in docs:
-        assert f"]({doc})" in section
-    assert "CONTRACTS" not in section
+    linked = re.findall(r"\]\((docs/[^)#]+)\)", text)
+    assert "docs/index.md" in linked
+    assert [target for target in linked if not (ROOT / target).is_file()] == []
 
 
 def test_links_between_docs_resolve():
     for page in DOCS.glob("*.md"):
         for target in re.findall(r"\]\(([^)#:]+)\)", page.read_text()):
             assert (page.parent / target).is_file(), f"{page.name}: {target}"
+
+
+def _python_snippets() -> list[tuple[str, str]]:
+    """Every ```python block of the README and the manual, as (where, code)."""
+    out = []
+    for path in [ROOT / "README.md", *sorted(DOCS.glob("*.md"))]:
+        for i, code in enumerate(re.findall(r"```python\n(.*?)```", path.read_text(encoding="utf-8"), re.S)):
+            out.append((f"{path.name}#{i + 1}", code))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("code", [c for _, c in _python_snippets()], ids=[w for w, _ in _python_snippets()])
+def test_every_python_snippet_of_the_readme_and_the_manual_runs(code, tmp_path):
+    """Each snippet runs as a user would paste it: a fresh interpreter, an empty working folder."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+
+
+def test_the_manual_has_python_snippets_to_run():
+    assert len(_python_snippets()) >= 2

@@ -18,10 +18,10 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.design import load_design
+from pnmold.design_fe import design_for_fe
 from pnmold.effects import EFFECTS, catalogue_json, check_effects
 from pnmold.errors import DesignError
 from pnmold.physics import Protocol, ReducedModel, characterisation_from_steps
-from pnmold.quickfe import design_for_fe
 from tests.conftest import STEPS
 
 SIX = ("gravity", "strain_stiffening", "self_contact", "layer_compliance", "mullins", "viscoelasticity")

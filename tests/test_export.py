@@ -119,13 +119,13 @@ def test_a_solution_without_states_is_refused(beam, beam_solution, tmp_path):
 
 
 def test_the_build_writes_paraview_files(beam, beam_solution, tmp_path):
-    """The build's FE stage (pipeline._quick_fe -> fe_report.write_paraview) on a beam's run."""
+    """The build's FE files (report.fem.write_paraview) on a beam's run."""
     from pnmold.design import load_design
-    from pnmold.fe_report import write_paraview
-    from pnmold.quickfe import FeRun
+    from pnmold.design_fe import FeRun, fe_problem
+    from pnmold.report.fem import write_paraview
     from pnmold.tetmesh import MeshSize
 
-    run = FeRun(load_design("fpn"), beam, None, beam_solution, MeshSize(), "chambers_up", (0.0, 0.0, -1.0), {})
+    run = FeRun(fe_problem(load_design("fpn")), beam, None, beam_solution, MeshSize(), "chambers_up", {})
     entry = write_paraview(run, tmp_path)
     assert entry["pvd"] == "fem/bending.pvd" and entry["steps"] == len(beam_solution.steps)
     assert len(_read_pvd(tmp_path / entry["pvd"])[1]) == entry["steps"]
@@ -312,8 +312,8 @@ def test_export_abaqus_from_a_build_folder(built, tmp_path):
 def test_export_sofa_from_a_build_folder(built, tmp_path):
     import meshio
 
+    from pnmold.checks.stlio import load_stl
     from pnmold.cli import main
-    from pnmold.stlio import load_stl
 
     out = tmp_path / "sofa"
     assert main(["export", str(built("fpn").out_dir), "--format", "sofa", "--out", str(out), "-q"]) == 0
@@ -379,8 +379,8 @@ def test_calculix_runs_the_exported_fpn_deck(tmp_path, record_property):
     the 1 mm walls), so CalculiX's tip travels less, by the margin printed in the report."""
     from pnmold.cad import export_actuator_step
     from pnmold.design import load_design
+    from pnmold.design_fe import run_fe
     from pnmold.export.calculix import compare_with_calculix
-    from pnmold.quickfe import run_fe
     from pnmold.tetmesh import MeshSize
 
     design = load_design("fpn")

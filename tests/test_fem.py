@@ -466,7 +466,7 @@ def test_full_bend_pressure_is_interpolated_or_explained():
 def test_stretch_field_and_boundary_of_a_homogeneous_stretch():
     """The report's strain picture: a block stretched 1.3x along x shows 1.3 at every node,
     and its boundary is the cube's surface, wound outward, without inner faces."""
-    from pnmold.fe_report import boundary_triangles, stretch_field
+    from pnmold.report.fem import boundary_triangles, stretch_field
 
     mesh = unit_block(n=2)
     u = np.zeros_like(mesh.nodes_mm)

@@ -1,4 +1,4 @@
-"""The FE's path following and globalisation (issue 17): volume control through a pressure
+"""The FE's path following and globalisation: volume control through a pressure
 maximum, the relaxed (wrinkling) sheet, the energy line search, the mixed tangent,
 failures that name their stage and region, and soft rubber hanging under its weight.
 
@@ -456,8 +456,10 @@ def test_gmres_with_the_last_factorisation_solves_the_bordered_step(beam):
     ev = direct.evaluate(bent.u, load, want_k=True)
     volume = ev.cavity_volume_mm3 + 5.0
     d_ref, dp_ref = _bordered_direct(direct, ev, volume)
+    # rtol 1e-9: at 1e-10 the preconditioned residual meets the rounding of a one-thread PARDISO
+    # factorisation (GMRES stalls after 12 products, a fallback), whatever the code around it
     for iterations, fallbacks in ((40, 0), (1, 1)):
-        newton = Newton(model, NewtonOptions(krylov_iterations=iterations, krylov_rtol=1e-10))
+        newton = Newton(model, NewtonOptions(krylov_iterations=iterations, krylov_rtol=1e-9))
         newton.factor(np.zeros(model.ndof), load)  # the preconditioner: the tangent at rest
         newton.assemble(bent.u, load)
         d, dp, _ = newton._direction(ev, volume)

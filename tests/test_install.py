@@ -18,7 +18,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 #: what setuptools reads to build the wheel (caches and build folders left out)
-SOURCES = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "LICENSE", "pnmold", "templates")
+SOURCES = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "LICENSE", "pnmold", "templates", "docs")
 _SKIP = shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc", "*.egg-info")
 
 
@@ -71,6 +71,35 @@ def test_the_wheel_ships_the_templates_as_they_are(wheel):
     assert {"fpn.toml", "spn.toml", "sweeps/fig-s2a.toml"} <= set(ours)
     assert shipped == ours
     assert "License-Expression: MIT" in meta
+
+
+def test_the_wheel_ships_the_manual_as_it_is(wheel):
+    with zipfile.ZipFile(wheel) as whl:
+        shipped = {n.removeprefix("pnmold/docs/"): whl.read(n) for n in whl.namelist() if n.startswith("pnmold/docs/")}
+    ours = {p.relative_to(ROOT / "docs").as_posix(): p.read_bytes() for p in (ROOT / "docs").rglob("*.md")}
+    assert {"index.md", "recording-format.md", "json-schemas.md"} <= set(ours)
+    assert shipped == ours
+
+
+@pytest.mark.slow
+def test_every_help_reference_to_the_manual_opens_from_the_installed_package(fresh, tmp_path):
+    """Each verb's --help names manual pages as `pnmold docs PAGE`; each opens from the fresh venv's package."""
+    import re
+
+    bindir = fresh / ("Scripts" if os.name == "nt" else "bin")
+    helps = "".join(_run([bindir / "pnmold", *verb, "--help"], cwd=tmp_path, env=_env()).stdout
+                    for verb in (["recording"], ["recording", "template"], ["material", "fit"], ["diagnose"],
+                                 ["simulate"]))
+    flat = re.sub(r"(?<=\w)-\s+(?=\w)", "-", re.sub(r"\s+", " ", helps))  # help text wraps lines, after hyphens too
+    named = set(re.findall(r"pnmold docs ([a-z-]+)", flat))
+    assert {"recording-format", "tensile-files", "json-schemas"} <= named
+    package = Path(_run([bindir / "python", "-c", "import pnmold; print(pnmold.__file__)"], cwd=tmp_path,
+                        env=_env()).stdout.strip()).parent
+    for page in sorted(named):
+        path = Path(_run([bindir / "pnmold", "docs", page, "--path"], cwd=tmp_path, env=_env()).stdout.strip())
+        assert path == package / "docs" / f"{page}.md" and path.is_file()
+        text = _run([bindir / "pnmold", "docs", page], cwd=tmp_path, env=_env()).stdout
+        assert text == path.read_text(encoding="utf-8")
 
 
 @pytest.mark.slow

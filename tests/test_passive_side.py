@@ -35,8 +35,8 @@ def test_a_two_sided_design_builds_passes_the_gate_and_its_passive_side_is_the_t
     import trimesh
 
     from pnmold.checks.run import check_parts
+    from pnmold.checks.stlio import load_stl
     from pnmold.pipeline import build
-    from pnmold.stlio import load_stl
 
     design = load_design("spn", TWO_SIDED)
     result = build(design, tmp_path / "two", fem=False, use_slicer=False)
@@ -83,8 +83,8 @@ def test_the_passive_side_resists_the_bend_and_only_the_driven_side_is_loaded(tm
     the sheet lies inside the body on its plane, and at the same pressure the two-sided segment bends
     less than the same segment without its passive side, but it bends."""
     from pnmold.cad import export_actuator_step
+    from pnmold.design_fe import run_fe
     from pnmold.physics.characterise import DEFAULT_SIZE
-    from pnmold.quickfe import run_fe
     from pnmold.tetmesh import CAVITY, STRAIN_LIMITING_LAYER
 
     bends = {}

@@ -31,8 +31,6 @@ from pnmold.pneumatics import (
     bench_network,
     chamber_law_from_curve,
     dead_volume_pv_offset_ml,
-    rig_for,
-    run_step_study,
     simulate_network,
     simulate_step,
     with_effects,
@@ -50,6 +48,7 @@ from pnmold.pneumatics.gas import (
 from pnmold.pneumatics.mechanics import inertia_shape
 from pnmold.pneumatics.protocol import valve_schedule
 from pnmold.recording import read_recording
+from pnmold.simulate.dynamic import rig_for, run_step_study
 from tests.pneumatic_oracle import radau_step
 
 RT = R_AIR * T_REF_K
@@ -478,6 +477,8 @@ def test_run_step_study_writes_what_it_says(tmp_path, analytic_law):
     assert all(p.stat().st_size > 0 for p in study.written)
     assert json.loads((tmp_path / "s.json").read_text())["time_to_full_bend_s"] == study.document["time_to_full_bend_s"]
     assert study.summary[0].startswith("time to full bend") and len(study.summary) == 3
+    assert repr(study) == f"<StepStudy fpn: {study.summary[0]}>"  # a notebook shows a summary, not the series
+    assert study._repr_html_().startswith("<table>") and "s.json" in study._repr_html_()
     meta = read_recording(tmp_path / "s.csv").metadata  # the bench, for the diagnosis to read back
     assert float(meta["valve_sonic_conductance"]) == pytest.approx(rig.supply_valve.conductance_l_per_s_bar,
                                                                     rel=1e-11)

@@ -9,7 +9,7 @@ import pytest
 from rich.console import Console
 
 from pnmold.cli import main
-from pnmold.progress import STAGE_LABELS, stage_progress
+from pnmold.cli.progress import STAGE_LABELS, stage_progress
 
 
 def console() -> tuple[Console, io.StringIO]:

@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from pnmold.cli import main
-from pnmold.measurement import Measurement
 from pnmold.physics import Protocol, ReducedModel
 from pnmold.physics.protocol import read_by_volume
 from pnmold.physics.reading import at_volumes
 from pnmold.recording import Recording, read_recording, write_recording
+from pnmold.recording.measurement import Measurement
 
 PISTON = Measurement(rig="volume", medium="air")
 

@@ -1,4 +1,4 @@
-"""How a recording reads the model (pnmold.physics.reading, pnmold.measurement): closed forms, and
+"""How a recording reads the model (pnmold.physics.reading, pnmold.recording.measurement): closed forms, and
 diagnoses of recordings measured in a lab's own way (camera frame, bend angle over another length,
 a piston rig compressing air) that register the measurement instead of blaming physics."""
 
@@ -11,10 +11,10 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.errors import RecordingError
-from pnmold.measurement import Measurement
 from pnmold.physics import Protocol, ReducedModel
 from pnmold.physics.reading import P_ATM_KPA, T_LAB_K, T_STD_K, read_bend, read_tip, read_volume
 from pnmold.recording import read_recording, write_recording
+from pnmold.recording.measurement import Measurement
 
 
 def test_a_trapped_bubble_and_a_piston_compress_isothermally():

@@ -1,4 +1,4 @@
-"""Recordings (CONTRACTS.md §4): read, write, refuse damaged files with file, line, column; units
+"""Recordings (docs/recording-format.md): read, write, refuse damaged files with file, line, column; units
 converted at reading (a psi recording diagnoses like its kPa twin); templates."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 from pnmold.cli import main
 from pnmold.errors import RecordingError
 from pnmold.recording import COLUMNS, METADATA_KEYS, read_recording, recording_template, write_recording
-from pnmold.units import PRESSURE_UNITS, PSI_KPA, VOLUME_UNITS
+from pnmold.recording.units import PRESSURE_UNITS, PSI_KPA, VOLUME_UNITS
 
 GOOD = """# pnmold-recording: 1
 # kind: bending

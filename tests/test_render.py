@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from pnmold import render
+from pnmold.report import render
 
 VIRIDIS_ENDS = (np.array([68, 1, 84]), np.array([253, 231, 37]))
 

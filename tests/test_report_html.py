@@ -18,8 +18,8 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.design import load_design
-from pnmold.render import PARTS
-from pnmold.report_html import write_report
+from pnmold.report.html import write_report
+from pnmold.report.render import PARTS
 
 #: the parts drawn for the fpn builds below (a design with a passive side draws one more)
 DRAWN = [n for n in PARTS if n in load_design("fpn").part_names]
@@ -105,7 +105,7 @@ class Fetches(HTMLParser):
 
 
 def test_the_inlined_component_cannot_end_its_script_early():
-    from pnmold.report_html import DATA
+    from pnmold.report.html import DATA
 
     js = (DATA / "model-viewer.min.js").read_text(encoding="utf-8").lower()
     assert "customelements.define(\"model-viewer\"" in js
@@ -170,7 +170,7 @@ def test_the_part_pictures_differ_and_are_not_blank(plain):
 def test_a_crashed_renderer_still_gives_a_page_with_the_reason(plain, tmp_path, monkeypatch):
     import sys
 
-    from pnmold.report_html import report_page
+    from pnmold.report.html import report_page
 
     fake = tmp_path / "python"
     fake.write_text("#!/bin/sh\nkill -SEGV $$\n")

@@ -354,8 +354,8 @@ def test_the_blocked_force_follows_the_fe_closer_with_the_probe():
     toward full bend), and nearer the FE at every pressure than the gravity probe's compliance alone."""
     import dataclasses
 
+    from pnmold.design_fe import run_fe
     from pnmold.physics.characterise import DEFAULT_SIZE
-    from pnmold.quickfe import run_fe
 
     design = load_design("fpn")
     c = characterise(design)

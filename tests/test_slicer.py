@@ -1,4 +1,4 @@
-"""Tests of pnmold.slicer against the real PrusaSlicer (skipped only where it is missing)."""
+"""Tests of pnmold.checks.slicer against the real PrusaSlicer (skipped only where it is missing)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from pnmold.errors import ExportError, UsageError
-from pnmold.slicer import (
+from pnmold.checks.slicer import (
     DEFAULT_PROFILE,
     NOT_FOUND,
     bed_size_mm,
@@ -18,6 +17,7 @@ from pnmold.slicer import (
     read_profile,
     slice_part,
 )
+from pnmold.errors import ExportError, UsageError
 
 needs_slicer = pytest.mark.skipif(
     find_slicer() is None,

@@ -13,10 +13,10 @@ from pnmold.cli import main
 from pnmold.design import load_design
 from pnmold.diagnose.data import build_dataset
 from pnmold.errors import DesignError
-from pnmold.measurement import measurement_of
 from pnmold.physics.characterisation import Characterisation
 from pnmold.physics.uncertainty import DesignFloor, check_uncertain, moved_design, uncertainty_keys
 from pnmold.recording import Recording
+from pnmold.recording.measurement import measurement_of
 
 P_FE = np.linspace(0.0, 40.0, 81)  # past every row / ratio the tests read (20 kPa x 1.5)
 

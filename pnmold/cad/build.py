@@ -9,14 +9,14 @@ from pathlib import Path
 import cadquery as cq
 
 from pnmold.cad import molds, parts
-from pnmold.design import PART_NAMES, Design
+from pnmold.conventions import USES
+from pnmold.design import Design
 from pnmold.errors import ExportError
 from pnmold.fsutil import atomic_path
-from pnmold.layout import USES
 
 log = logging.getLogger(__name__)
 
-__all__ = ["PART_NAMES", "export_actuator_step", "export_parts", "make_parts"]
+__all__ = ["export_actuator_step", "export_parts", "make_parts"]
 
 #: STL tessellation: absolute chordal deviation (mm) and angular deviation (rad).
 STL_TOLERANCE_MM = 0.005
@@ -24,7 +24,7 @@ STL_ANGULAR_RAD = 0.05
 
 
 def make_parts(design: Design) -> dict[str, cq.Shape]:
-    """Every part of :attr:`Design.part_names` as a CadQuery solid, in casting position (CONTRACTS.md §2)."""
+    """Every part of :attr:`Design.part_names` as a CadQuery solid, in casting position (docs/frame-and-units.md)."""
     top = parts.top_layer(design)
     bottom = parts.bottom_layer(design)
     passive = parts.passive_layer(design, top)

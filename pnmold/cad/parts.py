@@ -26,15 +26,11 @@ def _y(design: Design, half: float | None = None) -> tuple[float, float]:
 
 def chamber_cores(design: Design) -> list[cq.Shape]:
     """The air cavities of the chambers (positive boxes), proximal first."""
-    c, z0 = design.chambers, design.top_z0_mm
-    return [box(f"chamber {i + 1} cavity", design.cavity_x_mm(i), _y(design, c.width_mm / 2),
-                (z0, z0 + c.height_mm)) for i in range(c.count)]
+    return [box(f"chamber {i + 1} cavity", *ranges) for i, ranges in enumerate(design.chamber_boxes_mm)]
 
 
 def channel_core(design: Design) -> cq.Shape:
-    z0 = design.top_z0_mm
-    return box("channel", design.channel_x_mm, _y(design, design.channel.width_mm / 2),
-               (z0, z0 + design.channel.height_mm))
+    return box("channel", *design.channel_box_mm)
 
 
 def inlet_bore(design: Design) -> cq.Shape:

@@ -10,8 +10,8 @@ import numpy as np
 from pnmold.checks import measure
 from pnmold.checks.context import BuildFiles
 from pnmold.checks.findings import LENGTH_TOL_MM, Finding, at_least, at_most, equal
+from pnmold.conventions import MOLDS, USES
 from pnmold.design.rules import TUBE_INTERFERENCE_MAX
-from pnmold.layout import MOLDS, USES
 
 
 def _elastomer_walls(files: BuildFiles) -> list[Finding]:

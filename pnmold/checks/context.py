@@ -9,9 +9,9 @@ import manifold3d as mf
 import trimesh
 
 from pnmold.checks import solids as S
+from pnmold.checks.stlio import load_stl
 from pnmold.design import Design, load_design
 from pnmold.errors import UsageError
-from pnmold.stlio import load_stl
 
 
 class BuildFiles:

@@ -9,7 +9,7 @@ from scipy.sparse.csgraph import connected_components
 from pnmold.checks import measure
 from pnmold.checks.context import BuildFiles
 from pnmold.checks.findings import Finding, at_least, at_most, equal
-from pnmold.stlio import load_stl
+from pnmold.checks.stlio import load_stl
 
 _DEGENERATE_AREA_MM2 = 1e-9
 

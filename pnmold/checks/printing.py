@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from pnmold import slicer
-from pnmold.checks import measure
+from pnmold.checks import measure, slicer
 from pnmold.checks.context import BuildFiles
 from pnmold.checks.findings import LENGTH_TOL_MM, Finding, at_least, at_most
-from pnmold.layout import MOLDS, USES
+from pnmold.conventions import MOLDS, USES
 
 BED_CONTACT_MIN = 0.5  # assumed: at least half the footprint flat on the bed
 

@@ -1,7 +1,7 @@
 """The ``pnmold`` command line: one module per verb (``add_args`` and ``run``), like meshio's.
 
 Handlers only parse, call one library function and print; :func:`main` maps errors to exit
-codes (CONTRACTS.md §1): 0 success, 1 a design-rule check failed, 2 bad usage or input, 3 a
+codes (docs/cli.md): 0 success, 1 a design-rule check failed, 2 bad usage or input, 3 a
 geometry, meshing or solver failure; 130 after Ctrl-C; 70 for an unexpected error (a bug:
 one line, the traceback with ``-v``).
 """

@@ -59,7 +59,7 @@ def stdout_for_json(args) -> Iterator[None]:
 
 
 def add_design(parser: argparse.ArgumentParser, default: str | None = None) -> None:
-    """The DESIGN argument (a template or a TOML file) and ``--set`` (CONTRACTS.md §1)."""
+    """The DESIGN argument (a template or a TOML file) and ``--set`` (docs/cli.md)."""
     if default is None:
         parser.add_argument("design", help="template name (see `pnmold templates`) or TOML file")
     else:
@@ -79,7 +79,7 @@ def load(args):
 @contextmanager
 def stages(args, title: str) -> Iterator[Callable[[str], None]]:
     """A ``say(stage)`` callback that shows each stage with its time (nothing with ``--quiet``)."""
-    from pnmold.progress import stage_progress
+    from pnmold.cli.progress import stage_progress
 
     with stage_progress(err_console, args.quiet, title=title) as say:
         yield say

@@ -15,6 +15,7 @@ from pnmold.cli import (
     check,
     checklist,
     diagnose,
+    docs,
     effects,
     export,
     material,
@@ -31,7 +32,7 @@ from pnmold.version import __version__
 #: verb -> its module, in the order ``--help`` lists them
 VERBS = {"build": build, "check": check, "report": report, "simulate": simulate, "checklist": checklist,
          "material": material, "sweep": sweep, "diagnose": diagnose, "effects": effects, "templates": templates,
-         "recording": recording, "export": export}
+         "recording": recording, "export": export, "docs": docs}
 
 
 def make_parser() -> argparse.ArgumentParser:

@@ -8,7 +8,7 @@ from pnmold.cli._common import add_design, emit_json, json_file, load, out_conso
 from pnmold.errors import UsageError
 
 HELP = "compare recordings with the model and name the missing physics"
-DESCRIPTION = ("Compare lab recordings (CSV: see docs/recording-format.md; pressures in kPa, psi, bar, ... and "
+DESCRIPTION = ("Compare lab recordings (CSV: see `pnmold docs recording-format`; pressures in kPa, psi, bar, ... and "
                "volumes in mL, uL, cc, ... by their column names, converted as read) with the reduced model (step "
                "recordings: with the pneumatic step model): recalibrate the modulus, locate the mismatch, name the "
                "missing physics from the catalogue of effects (pnmold effects), fit it and show the held-out "
@@ -18,9 +18,9 @@ DESCRIPTION = ("Compare lab recordings (CSV: see docs/recording-format.md; press
 def add_args(parser) -> None:
     add_design(parser)
     parser.add_argument("recordings", nargs="+", metavar="RECORDING.csv",
-                        help="recordings (bending, pv, force, step; docs/recording-format.md)")
+                        help="recordings (bending, pv, force, step; `pnmold docs recording-format`)")
     parser.add_argument("--json", metavar="FILE",
-                        help="write the diagnosis (schema pnmold.diagnosis/1: docs/json-schemas.md); - for "
+                        help="write the diagnosis (schema pnmold.diagnosis/1: `pnmold docs json-schemas`); - for "
                         "standard output")
     parser.add_argument("--report", metavar="DIR", help="write report.html with before/after plots into DIR")
     parser.add_argument("--seed", type=int, default=0, help="seed of the bootstrap resampling (default 0)")

@@ -1,4 +1,4 @@
-"""``pnmold effects``: the catalogue of physics effects (CONTRACTS.md §5)."""
+"""``pnmold effects``: the catalogue of physics effects (docs/effects.md)."""
 
 from __future__ import annotations
 

@@ -20,7 +20,7 @@ def add_args(parser) -> None:
         "(';'-separated, a metadata block, 'Engineering Strain', 'Engineering Stress (MPa)'): delimiter and header "
         "found, columns by name or by the options below, units from the header (MPa, kPa, Pa, N/mm2, psi; strain "
         "as a ratio or %), true stress converted to engineering stress, or force and extension with the "
-        "specimen's size. See docs/tensile-files.md.")
+        "specimen's size. See `pnmold docs tensile-files`.")
     fit.add_argument("tensile", metavar="TENSILE.csv")
     fit.add_argument("--model", choices=["yeoh", "neo-hookean", "ogden"], default="yeoh")
     fit.add_argument("--json", metavar="FILE",

@@ -9,8 +9,8 @@ from pnmold.cli._common import output_flags, say
 from pnmold.conventions import RECORDING_KINDS
 from pnmold.errors import UsageError
 
-HELP = "recording templates and checks (the lab CSV format, docs/recording-format.md)"
-DESCRIPTION = ("Lab recordings in pnmold's CSV format (see docs/recording-format.md): write an empty, commented "
+HELP = "recording templates and checks (the lab CSV format, `pnmold docs recording-format`)"
+DESCRIPTION = ("Lab recordings in pnmold's CSV format (see `pnmold docs recording-format`): write an empty, commented "
                "file of one kind to fill in, or check files as pnmold diagnose will read them, with the unit "
                "conversions it makes.")
 
@@ -21,7 +21,7 @@ def add_args(parser) -> None:
         "template", parents=[output_flags()], help="write an empty, commented recording of one kind",
         description="Write an empty recording of KIND: '##' comments explaining every metadata key and column, "
         "the metadata lines and the header row (required columns, then optional ones to keep or delete). Fill "
-        "in two or more rows and pnmold reads it. See docs/recording-format.md.")
+        "in two or more rows and pnmold reads it. See `pnmold docs recording-format`.")
     template.add_argument("kind", choices=list(RECORDING_KINDS), metavar="KIND",
                           help=f"one of {', '.join(RECORDING_KINDS)}")
     template.add_argument("--out", metavar="FILE", help="write to FILE (default: standard output)")

@@ -15,7 +15,7 @@ def add_args(parser) -> None:
 
 
 def run(args) -> int:
-    from pnmold.report_html import write_report
+    from pnmold.report.html import write_report
 
     path = write_report(args.dir)
     say(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)", args)

@@ -12,8 +12,8 @@ HELP = "quasi-static response (FE or reduced model) or step response, as JSON or
 DESCRIPTION = ("Solve the design's pressure curve with the FE model or the reduced model (--model rom, "
                "characterised by the FE once: templates ship theirs, others are cached): free bending, "
                "pressure-volume, or blocked tip force, with physics effects switched on; or with --dynamic the "
-               "time response to a supply step. Write it as JSON (pnmold.simulation/1: docs/json-schemas.md) "
-               "and/or as a recording in the lab format (synthetic data: docs/recording-format.md).")
+               "time response to a supply step. Write it as JSON (pnmold.simulation/1: `pnmold docs json-schemas`) "
+               "and/or as a recording in the lab format (synthetic data: `pnmold docs recording-format`).")
 
 
 def add_args(parser) -> None:
@@ -35,9 +35,9 @@ def add_args(parser) -> None:
                       help="--model fe: write every converged step as DIR/step_NNN.vtu with DIR/bending.pvd "
                       "(force.pvd for --kind force) for ParaView")
     both.add_argument("--recording", metavar="FILE.csv",
-                      help="write the result in the recording format (docs/recording-format.md)")
+                      help="write the result in the recording format (`pnmold docs recording-format`)")
     both.add_argument("--json", metavar="FILE",
-                      help="write pnmold.simulation/1 JSON (docs/json-schemas.md); - for standard output")
+                      help="write pnmold.simulation/1 JSON (`pnmold docs json-schemas`); - for standard output")
     noise = parser.add_argument_group("synthetic noise of --recording")
     noise.add_argument("--noise-mm", type=float, default=0.0, metavar="SIGMA",
                        help="Gaussian noise on tip_x_mm and tip_z_mm (standard deviation, mm)")
@@ -88,8 +88,8 @@ def run(args) -> int:
 
 
 def _run_dynamic(args) -> int:
-    from pnmold.pneumatics.study import dynamic_effects, rig_for, run_step_study
     from pnmold.simulate import parse_effects
+    from pnmold.simulate.dynamic import dynamic_effects, rig_for, run_step_study
 
     design = load(args)
     effects = dynamic_effects(dict(parse_effects(args.effects)))

@@ -10,8 +10,8 @@ from pnmold.design.load import (
     templates_dir,
     to_toml,
 )
-from pnmold.design.model import PART_NAMES, SECTIONS, Design
+from pnmold.design.model import SECTIONS, Design
 from pnmold.design.rules import validate
 
-__all__ = ["Design", "PART_NAMES", "SECTIONS", "as_dict", "coerce_value", "digest", "field_type", "list_templates",
+__all__ = ["Design", "SECTIONS", "as_dict", "coerce_value", "digest", "field_type", "list_templates",
            "load_design", "templates_dir", "to_toml", "validate"]

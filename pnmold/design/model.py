@@ -5,9 +5,9 @@ source or says ``assumed``: the supplement (Mosadegh et al., Adv. Funct. Mater. 
 gives the chamber height (10.5 mm), the channel height (1 mm), the inside walls (1 mm),
 the Yeoh constants of Elastosil M4601, the paper's modulus and the 2 mm biopsy punch;
 its Fig. S1 drawing dimensions are not in the text, so those sizes are assumptions,
-chosen after the Soft Robotics Toolkit PneuNet and the fPN-like body of FEM_NOTES.
+chosen after the Soft Robotics Toolkit PneuNet and an fPN-like body (docs/fe.md).
 
-Frame (CONTRACTS.md §2): x along the length from the inlet/clamped end (x = 0), y across
+Frame (docs/frame-and-units.md): x along the length from the inlet/clamped end (x = 0), y across
 the width centred on 0, z = 0 at the bottom (paper) face, chambers toward +z. mm, MPa.
 """
 
@@ -16,12 +16,10 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from pnmold.conventions import PART_NAMES
 from pnmold.materials.library import ELASTOSIL
 
 KINDS = ("fpn", "spn")
-#: the parts of a build, in build order (CONTRACTS.md §3: file stems)
-PART_NAMES = ("actuator", "top_layer", "bottom_layer", "passive_layer", "paper", "mold_interior", "mold_exterior",
-              "mold_bottom")
 
 
 def _f(default, doc: str, source: str = "assumed"):
@@ -41,7 +39,7 @@ class Meta:
 
 @dataclass(frozen=True)
 class Chambers:
-    count: int = _f(11, "number of chambers", "assumed (FEM_NOTES fPN-like body)")
+    count: int = _f(11, "number of chambers", "assumed (an fPN-like body)")
     length_mm: float = _f(6.0, "cavity length along x", "assumed (SRT PneuNet 8 mm chamber incl. 1 mm walls)")
     width_mm: float = _f(16.0, "cavity width along y", "assumed (20 mm wide body, 2 mm side walls)")
     height_mm: float = _f(10.5, "cavity height along z, from the bottom layer", SUPPLEMENT + ": chambers 10.5 mm")
@@ -260,7 +258,7 @@ class Design:
 
     @property
     def part_names(self) -> tuple[str, ...]:
-        """The parts a build exports (CONTRACTS.md §3): no paper sheet in a design without one, a passive
+        """The parts a build exports (docs/json-schemas.md): no paper sheet in a design without one, a passive
         layer only in a design with a passive side."""
         absent = {"paper": not self.paper.present, "passive_layer": not self.passive_side.present}
         return tuple(n for n in PART_NAMES if not absent.get(n, False))
@@ -380,6 +378,20 @@ class Design:
     def channel_x_mm(self) -> tuple[float, float]:
         """The channel starts halfway into the end wall and ends in the last cavity."""
         return self.chambers.end_wall_mm / 2, self.cavity_x_mm(self.chambers.count - 1)[1]
+
+    @property
+    def chamber_boxes_mm(self) -> tuple[tuple[tuple[float, float], ...], ...]:
+        """Each chamber's air cavity as its (x, y, z) ranges in mm, proximal first: the interior mold's
+        cores, the cavities the mesh names ``cavity``."""
+        c, z0 = self.chambers, self.top_z0_mm
+        return tuple((self.cavity_x_mm(i), (-c.width_mm / 2, c.width_mm / 2), (z0, z0 + c.height_mm))
+                     for i in range(c.count))
+
+    @property
+    def channel_box_mm(self) -> tuple[tuple[float, float], ...]:
+        """The connecting channel's (x, y, z) ranges in mm."""
+        w, z0 = self.channel.width_mm / 2, self.top_z0_mm
+        return self.channel_x_mm, (-w, w), (z0, z0 + self.channel.height_mm)
 
     @property
     def inlet_axis_z_mm(self) -> float:

@@ -1,4 +1,4 @@
-"""The nominal parameters recalibrated before any physics is blamed (DIAGNOSE.md: calibrate first).
+"""The nominal parameters recalibrated before any physics is blamed (docs/diagnosis.md: calibrate first).
 
 - **The rubber's modulus.** A plain stiffness error (another batch of rubber, a thinner wall)
   scales the modulus within +-40 % (``WINDOW``, assumed: batch-to-batch and cure variation of
@@ -104,7 +104,7 @@ def _pinned(value: float, p: Parameter) -> str | None:
 def modulus_pinned(decision, calibration: tuple[Parameter, ...]) -> bool:
     """The modulus sits at a bound of its window in the final model and in the best candidate's fit
     too: more than a batch of rubber varies, and no catalogued effect frees it (an effect that does,
-    even one not accepted, is the likelier story than another rubber: DIAGNOSE.md's trap)."""
+    even one not accepted, is the likelier story than another rubber: the trap docs/diagnosis.md warns of)."""
     fits = [decision.final, *decision.ranked[:1]]
     return all(_pinned(c.fit.values["modulus_scale"], calibration[0]) is not None for c in fits)
 
@@ -118,7 +118,7 @@ def other_rubber_fits(check: MaterialCheck, decision, margin: float) -> bool:
     """Another rubber (the material check's modulus, no effect) fits the data within ``margin``
     (chi-square) of the best candidate that freed the window's modulus: that effect only stood in
     for a modulus the window did not allow (on one first loading a Mullins factor is a modulus
-    scale), so it is not evidence against another rubber (DIAGNOSE.md: judge a term only by what
+    scale), so it is not evidence against another rubber (docs/diagnosis.md: judge a term only by what
     recalibration could not absorb)."""
     best = min((c.fit.chi2 for c in decision.ranked[:1]), default=float("inf"))
     return check.chi2 <= best + margin

@@ -1,11 +1,15 @@
-"""``diagnose``: recordings against the model -> a :class:`Diagnosis` (schema pnmold.diagnosis/1)."""
+"""``diagnose``: recordings against the model -> a :class:`Diagnosis` (schema pnmold.diagnosis/1).
+
+The method is ``docs/diagnosis.md``'s; the document is written by :mod:`pnmold.diagnose.document`
+(``docs/json-schemas.md``).
+"""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,14 +26,19 @@ from .calibrate import (
     other_rubber_fits,
     reach_scale,
 )
-from .data import MODEL_FORM_SHARE, PRESSURE_FORM_SHARE, DataSet, build_dataset
+from .data import DataSet, build_dataset
 from .decide import DCHI2_MIN, Candidate, Decision, decide, excess_sigma, ladder_parameter
+from .document import SCHEMA, Calibrated, Findings, diagnosis_document
 from .fitting import Fitter, Forward, zscores
+from .inputs import DesignRef, DiagnosisModel
 from .locate import locate
+from .reach import REFUSE_BEYOND_FE, extrapolation, out_of_reach, past_maximum
 
-SCHEMA = "pnmold.diagnosis/1"
-#: the share of rows beyond the FE's characterisation above which a diagnosis is refused (assumed)
-REFUSE_BEYOND_FE = 0.2
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["FLOOR_RESCALE", "REFUSE_BEYOND_FE", "SCHEMA", "UNITS", "Diagnosis", "diagnose"]
+
 #: the design's floor is read again, once, at the calibrated modulus when that is this factor away from where it
 #: was read (assumed: the floor changes little within 10 % of a modulus)
 FLOOR_RESCALE = 1.1
@@ -37,14 +46,29 @@ UNITS = {"tip_x_mm": "mm", "tip_z_mm": "mm", "volume_ml": "mL", "force_n": "N", 
          "bend_angle_deg": "deg", "flow_slpm": "SLPM", "pressure_far_kpa": "kPa"}
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Diagnosis:
-    """The JSON document (``doc``) and what the plots need."""
+    """The JSON document (``doc``) and what the plots need.
+
+    Parameters
+    ----------
+    doc : dict
+        The document, schema ``pnmold.diagnosis/1`` (``docs/json-schemas.md``).
+    data : DataSet
+        The recordings' rows as judged, with their noise.
+    decision : Decision
+        The baseline, the ranked candidates and the final model.
+    seconds : float
+        The wall time the diagnosis took.
+    effects : tuple
+        The catalogue entries considered (for their parameters' units).
+    """
 
     doc: dict[str, Any]
     data: DataSet
     decision: Decision
     seconds: float
+    effects: tuple = ()
 
     @property
     def named(self) -> list[str]:
@@ -53,7 +77,63 @@ class Diagnosis:
     @property
     def past_maximum(self) -> bool:
         """Rows lie past the calibrated baseline's pressure maximum."""
-        return _past_maximum(self.decision.baseline.fit.predictions, self.data)
+        return past_maximum(self.decision.baseline.fit.predictions, self.data)
+
+    def figure(self, *, ax: Any = None) -> Figure:
+        """The diagnosis's figure (data, baseline and final model, residuals with the located window), as
+        :func:`pnmold.diagnose.plots.fit_figure` draws it for the report; no file is written.
+
+        Parameters
+        ----------
+        ax : a 2 x (number of series) grid of axes to draw on; default a new figure.
+        """
+        from .plots import fit_figure
+
+        return fit_figure(self, ax=ax)
+
+    def _overview(self) -> dict[str, str]:
+        """Design, recordings, named effects, unexplained, held-out RMSE: as words."""
+        doc, fit = self.doc, self.doc["fit"]
+        kinds: dict[str, list[int]] = {}
+        for r in doc["recordings"]:
+            kinds.setdefault(r["kind"], []).append(r["rows"])
+        recordings = ", ".join(f"{len(rows)} {kind} ({sum(rows)} rows)" if len(rows) > 1 else
+                               f"{kind} ({rows[0]} rows)" for kind, rows in kinds.items())
+        by_name = {e.name: e for e in self.effects}
+        named = ", ".join(_main_parameter(m, by_name.get(m["effect"])) for m in doc["missing_physics"])
+        observable = fit["observable"]
+        unit = UNITS.get(observable, "")
+        return {"design": str(doc["design"]["name"]), "recordings": recordings or "none", "named": named or "nothing",
+                "unexplained": "yes" if doc["unexplained"] else "no",
+                "held-out RMSE": f"{fit['heldout_rmse_before']:.3g} -> {fit['heldout_rmse_after']:.3g}"
+                                 f"{' ' + unit if unit else ''} ({observable})"}
+
+    def __repr__(self) -> str:
+        s = self._overview()
+        return (f"<Diagnosis {s['design']}: {s['recordings']}; named {s['named']}; unexplained {s['unexplained']};\n"
+                f" held-out RMSE {s['held-out RMSE']}>")
+
+    def _repr_html_(self) -> str:
+        """The overview as a small table and the summary (Jupyter shows it for a diagnosis)."""
+        from html import escape
+
+        from pnmold.frames import summary_html
+
+        return summary_html("pnmold diagnosis", self._overview()) + f"<p>{escape(str(self.doc['summary']))}</p>"
+
+
+def _main_parameter(entry: dict[str, Any], effect: Any) -> str:
+    """A ``missing_physics`` entry by its main parameter, as the explanation names it (``effect``: its
+    catalogue entry, for the unit; None: no unit)."""
+    name, values = entry["effect"], entry["parameters"]
+    if not values:
+        return str(name)
+    if effect is not None:
+        key, unit = explain.main_parameter(effect, values)
+    else:
+        key, unit = (name if name in values else next(iter(values))), ""
+    value = f"{values[key]:.3g}" + ("" if unit in ("", "1") else f" {unit}")
+    return f"{key} = {value}" if key == name else f"{name} ({key} = {value})"
 
 
 def by_series(data: DataSet, z: np.ndarray) -> list[np.ndarray]:
@@ -80,45 +160,66 @@ def _full_z(fitter: Fitter, c: Candidate) -> np.ndarray:
     return zscores(fitter.data, c.fit.predictions)
 
 
-def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forward: Forward,
-             effects: list, *, seed: int = 0, reach: dict[str, Any] | None = None,
-             model_form_share: float = MODEL_FORM_SHARE,
-             pressure_form_share: float = PRESSURE_FORM_SHARE, stiffening_top_mpa: float = 0.0,
-             design_floor: Callable[[float], list[dict[str, np.ndarray]]] | None = None) -> Diagnosis:
-    """Calibrate, locate, rank, fit, accept; ``effects`` are catalogue entries to consider
-    (those whose kinds include a recorded kind). ``reach``: how far the model's FE
-    characterisation went (``max_pressure_kpa``, ``full_bend_pressure_kpa``, ``reason``), to say
-    where the answer rests on extrapolation (and refuse it when most of it does).
-    ``model_form_share``: the model's own form error as a share of each observable's range, the
-    noise floor of a recording without repeated cycles (:data:`pnmold.diagnose.data.MODEL_FORM_SHARE`), and
-    ``pressure_form_share`` its error in pressure, carried through the model's slope on quasi-static
-    recordings (:data:`pnmold.diagnose.data.PRESSURE_FORM_SHARE`). ``stiffening_top_mpa`` > 0: the forward's
-    model has a stiffening ladder up to that Yeoh C30 (:func:`pnmold.diagnose.model.stiffening_top`), and
-    ``strain_stiffening`` is fitted by its C30 on it. ``design_floor(modulus_scale)``: per recording,
-    observable -> per row, the standard deviation the design's stated dimensional uncertainty gives
-    (:class:`pnmold.physics.uncertainty.DesignFloor`), read at that modulus: a floor under the noise, read
-    again, once, at the calibrated modulus when that is over :data:`FLOOR_RESCALE` away."""
+def diagnose(design: DesignRef, recordings: Sequence[Recording], model: DiagnosisModel) -> Diagnosis:
+    """Calibrate, locate, rank, fit, accept (``docs/diagnosis.md``).
+
+    Parameters
+    ----------
+    design : DesignRef
+        The design the recordings are of, as the document names it; its ``material`` is the
+        rubber the material check names.
+    recordings : sequence of Recording
+        The recordings, read and checked.
+    model : DiagnosisModel
+        The forward model, the catalogue entries to consider (those whose kinds include a recorded
+        kind), how far its FE characterisation went (``reach``: where the answer rests on
+        extrapolation, and refused when most of it does) and the settings of the judging.
+
+    Returns
+    -------
+    Diagnosis
+        Its ``doc`` the ``pnmold.diagnosis/1`` document.
+    """
     t0 = time.perf_counter()
     kinds = {r.kind for r in recordings}
-    effects = [e for e in effects if kinds & set(e.kinds)]
+    effects = [e for e in model.effects if kinds & set(e.kinds)]
+    cal = _calibrate(design, recordings, model, effects)
+    final = cal.decision.final
+    notes = [*calibration_notes(final, cal.calibration, cal.check), *explain.left_out(recordings, cal.left_out),
+             *extrapolation(final.fit.predictions, cal.data, model.reach, final.fit.values.get("modulus_scale", 1.0))]
+    mismatch, fit = _fit_summary(cal)
+    unit = UNITS.get(fit["observable"], "")
+    missing, rig_notes = _named_effects(cal, effects, recordings, mismatch, fit, unit)
+    left, summary = _summary(cal, effects, fit, unit, missing)
+    summary = " ".join([explain.calibrated(final.fit.values), *notes, summary, *rig_notes])
+    found = Findings(notes, mismatch, fit, missing, left, summary)
+    doc = diagnosis_document(design, recordings, cal, found, time.perf_counter() - t0)
+    return Diagnosis(doc, cal.data, cal.decision, time.perf_counter() - t0, tuple(effects))
+
+
+def _calibrate(design: DesignRef, recordings: Sequence[Recording], model: DiagnosisModel, effects: list
+               ) -> Calibrated:
+    """The search, repeated until it stands: as it is; about the material the recordings need (checked
+    once, when the modulus is pinned, the rows past the model's maximum or the baseline pinned); the
+    design's floor at the calibrated modulus (once, when that is over :data:`FLOOR_RESCALE` away);
+    without the rows out of reach. At most four rounds."""
+    forward, design_floor = model.forward, model.design_floor
     frame = any(r.kind == "bending" and r.measurement.tip_origin == "camera" for r in recordings)
     scale, check, left_out, floor_at, refloored = 1.0, None, {}, None, False
-    # as it is; about the material the recordings need; the design's floor at the calibrated modulus;
-    # without the rows out of reach
     for _ in range(4):
         start = {} if scale == 1.0 else {"modulus_scale": scale}
         floor_at = floor_at or scale
-        data = build_dataset(list(recordings), _prediction(forward, recordings, start), model_form_share, left_out,
-                             pressure_form_share, design_floor(floor_at) if design_floor else None)
+        data = build_dataset(list(recordings), _prediction(forward, recordings, start), model.model_form_share,
+                             left_out, model.pressure_form_share, design_floor(floor_at) if design_floor else None)
         fitter = Fitter(data, forward)
         calibration = calibration_parameters(scale, frame)
-        decision = decide(fitter, effects, seed=seed, calibration=calibration,
-                          main=ladder_parameter(stiffening_top_mpa))
+        decision = decide(fitter, effects, seed=model.bootstrap_seed, calibration=calibration,
+                          main=ladder_parameter(model.stiffening_top_mpa))
         pinned = modulus_pinned(decision, calibration)  # not a batch of rubber, and no effect frees it
-        past = _past_maximum(decision.final.fit.predictions, data)  # the rubber cannot reach the recordings
+        past = past_maximum(decision.final.fit.predictions, data)  # the rubber cannot reach the recordings
         if check is None and (pinned or past or baseline_pinned(decision, calibration)):
             least = reach_scale(_prediction(forward, recordings, {}))
-            check = check_material(fitter, frame, design_entry.get("material") or "rubber", least)
+            check = check_material(fitter, frame, design.material or "rubber", least)
             if not check.in_window and (pinned or past or other_rubber_fits(check, decision, DCHI2_MIN)):
                 scale, floor_at = check.scale, None
                 continue
@@ -128,16 +229,19 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         if design_floor and not refloored and abs(np.log(fitted / floor_at)) > np.log(FLOOR_RESCALE):
             floor_at, refloored = fitted, True  # the recordings read on the design's runs where the fit put them
             continue
-        out_of_reach = _out_of_reach(decision.final.fit.predictions, data)
-        if not out_of_reach:
+        unreached = out_of_reach(decision.final.fit.predictions, data)
+        if not unreached:
             break
-        left_out = {i: left_out.get(i, np.zeros(len(recordings[i]), bool)) | m for i, m in out_of_reach.items()}
-    base, final = decision.baseline, decision.final
-    notes = [*calibration_notes(final, calibration, check), *explain.left_out(recordings, left_out),
-             *_extrapolation(final.fit.predictions, data, reach, final.fit.values.get("modulus_scale", 1.0))]
+        left_out = {i: left_out.get(i, np.zeros(len(recordings[i]), bool)) | m for i, m in unreached.items()}
+    return Calibrated(data, fitter, decision, calibration, check, left_out)
+
+
+def _fit_summary(cal: Calibrated) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """Where the baseline misses (``mismatch``), and the RMSEs before and after, on all rows and held
+    out, of the observable it misses most (``fit``)."""
+    data, fitter, base, final = cal.data, cal.fitter, cal.decision.baseline, cal.decision.final
     mismatch = locate(data, by_series(data, _full_z(fitter, base)), residuals=_residuals(data, base))
     observable = mismatch[0]["observable"] if mismatch else data.series[0].observable
-    unit = UNITS.get(observable, "")
     fit = {
         "observable": observable,
         "rmse_before": _rmse(data, _full_z(fitter, base), observable),
@@ -145,9 +249,16 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         "heldout_rmse_before": _rmse(data, base.heldout_z, observable),
         "heldout_rmse_after": _rmse(data, final.heldout_z, observable),
     }
+    return mismatch, fit
+
+
+def _named_effects(cal: Calibrated, effects: list, recordings: Sequence[Recording], mismatch: list[dict[str, Any]],
+                   fit: dict[str, Any], unit: str) -> tuple[list[dict[str, Any]], list[str]]:
+    """The ``missing_physics`` entries of the accepted effects, and the words of their rig checks."""
+    final = cal.decision.final
     by_name = {e.name: e for e in effects}
     missing, rig_notes = [], []
-    for cand in decision.accepted:
+    for cand in cal.decision.accepted:
         name = cand.fit.hypothesis.effects[-1]
         effect = by_name[name]
         values, spread = explain.effect_values(final, effect)  # as the final model holds it, with every named effect
@@ -163,46 +274,27 @@ def diagnose(design_entry: dict[str, str], recordings: Sequence[Recording], forw
         })
         if name == "dead_volume":
             rig_notes += _check_rig(missing[-1], recordings, final.fit.predictions)
+    return missing, rig_notes
+
+
+def _summary(cal: Calibrated, effects: list, fit: dict[str, Any], unit: str, missing: list[dict[str, Any]]
+             ) -> tuple[list[dict[str, Any]], str]:
+    """Where the final model still misses (when unexplained; the baseline's misfit is the mismatch),
+    and the verdict's words: the named effects' explanations, what is left, or that nothing is missing."""
+    data, fitter, decision = cal.data, cal.fitter, cal.decision
+    final = decision.final
     judged = final.predictive_z if final.predictive_z is not None else final.heldout_z
     excess = excess_sigma(float(np.sum(judged ** 2)), judged.size)  # what the verdict was judged on
-    # where the final model still misses (the baseline's misfit is ``mismatch``)
     left = (locate(data, by_series(data, _full_z(fitter, final)), residuals=_residuals(data, final))
             if decision.unexplained else [])
     if decision.unexplained:  # what was named still counts; what is left is said after it
-        summary = " ".join([*(m["explanation"] for m in missing),
-                            explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects],
-                                                left[0]["description"] if left else None,
-                                                left[0]["observable"] if left else None)])
-    elif not missing:
-        summary = explain.nothing_missing(fit["heldout_rmse_after"], unit, excess)
-    else:
-        summary = " ".join(m["explanation"] for m in missing)
-    summary = " ".join([explain.calibrated(final.fit.values), *notes, summary, *rig_notes])
-    doc = {
-        "schema": SCHEMA,
-        "design": design_entry,
-        "recordings": [{"path": r.path, "kind": r.kind, "rows": len(r), "orientation": r.orientation,
-                        "conversions": dict(r.conversions)} for r in recordings],
-        "baseline": {"calibrated": {k: round(v, 6) for k, v in base.fit.values.items()},
-                     "rmse": fit["rmse_before"], "heldout_rmse": fit["heldout_rmse_before"]},
-        "calibration": {"final": {k: round(v, 6) for k, v in final.fit.values.items()
-                                  if k in {p.key for p in calibration}},
-                        "material_check": None if check is None else check.as_json(), "notes": notes},
-        "noise": {s.name: s.level for s in data.series},
-        "noise_parts": {s.name: {"measurement": s.measurement, "model_form": s.model_form,
-                                  "design_uncertainty": s.design} for s in data.series},
-        "mismatch": mismatch,
-        "remaining_mismatch": left,
-        "missing_physics": missing,
-        "unexplained": bool(decision.unexplained),
-        "fit": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in fit.items()},
-        "candidates": [_candidate_entry(c) for c in decision.ranked],
-        "summary": summary,
-        "alternatives": _alternatives(decision),
-        "model_evaluations": fitter.evaluations,
-        "seconds": round(time.perf_counter() - t0, 3),
-    }
-    return Diagnosis(doc, data, decision, time.perf_counter() - t0)
+        return left, " ".join([*(m["explanation"] for m in missing),
+                               explain.unexplained(fit["heldout_rmse_after"], unit, excess, [e.name for e in effects],
+                                                   left[0]["description"] if left else None,
+                                                   left[0]["observable"] if left else None)])
+    if not missing:
+        return left, explain.nothing_missing(fit["heldout_rmse_after"], unit, excess)
+    return left, " ".join(m["explanation"] for m in missing)
 
 
 def _check_rig(entry: dict[str, Any], recordings: Sequence[Recording],
@@ -233,93 +325,3 @@ def _prediction(forward: Forward, recordings: Sequence[Recording], calibration: 
         return forward({}, calibration)
     except SolveError:
         return [{k: np.zeros(len(r)) for k in r.columns} for r in recordings]
-
-
-def _past_maximum(predictions: list[dict[str, np.ndarray]], data: DataSet) -> bool:
-    """Any kept row past the model's pressure maximum (``pressure_excess``): the modulus the window
-    allows cannot reach the recordings."""
-    return bool(_rows_where(predictions, data, "pressure_excess").any())
-
-
-def _out_of_reach(predictions: list[dict[str, np.ndarray]], data: DataSet) -> dict[int, np.ndarray]:
-    """Recording index -> the kept rows where the model has no equilibrium (NaN: past its limit point;
-    rows past the FE's pressure maximum are not NaN but scored, see :func:`.fitting.zscores`)."""
-    out: dict[int, np.ndarray] = {}
-    for s in data.series:
-        f = np.asarray(predictions[s.recording][s.observable], float)
-        bad = np.zeros(f.size, bool)
-        bad[s.rows] = ~np.isfinite(f[s.rows])
-        if bad.any():
-            out[s.recording] = out.get(s.recording, np.zeros(f.size, bool)) | bad
-    return out
-
-
-def _rows_where(predictions: list[dict[str, np.ndarray]], data: DataSet, key: str) -> np.ndarray:
-    """Per kept row of every recording (once, whatever its observables), the prediction's flag ``key``."""
-    kept = {s.recording: s.rows for s in data.series}
-    return np.concatenate([np.asarray(predictions[i].get(key, np.zeros(len(data.recordings[i]))), float)[rows] > 0
-                           for i, rows in kept.items()])
-
-
-def _extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach: dict[str, Any] | None,
-                   scale: float = 1.0) -> list[str]:
-    """Where the final model reads its FE law beyond the pressures the FE solved: said, and refused
-    (SolveError) when that is most of the data and the FE stopped short of full bend. Rows past the
-    FE's pressure maximum are not read off any law (the model has no equilibrium there): said, with
-    how they were judged. ``scale``: the calibrated modulus scale, by which the FE's pressures carry
-    over to the recordings'."""
-    past = _rows_where(predictions, data, "pressure_excess")
-    full = _rows_where(predictions, data, "volume_excess")  # read by volume: more than the model can take
-    beyond = int(np.sum(_rows_where(predictions, data, "beyond_fe") & ~past & ~full))
-    total = past.size
-    if reach is None or not (beyond or past.any() or full.any()):
-        return []
-    top = reach["max_pressure_kpa"]
-    where = (f"{top:.4g} kPa" if abs(scale - 1.0) < 1e-6 else
-             f"{top * scale:.4g} kPa of the recordings ({top:.4g} kPa with the design's rubber, times the "
-             f"calibrated modulus scale {scale:.3g})")
-    notes = []
-    if past.any():
-        share = data.series[0].pressure_share or PRESSURE_FORM_SHARE
-        notes.append(f"{int(past.sum())} of {total} rows lie past the model's pressure maximum ({where}; "
-                     f"{reach.get('reason') or 'the FE'}): it has no equilibrium there under pressure control, so "
-                     f"each counts by the share of its pressure the model cannot hold ({100 * share:.3g} % of the "
-                     f"pressure is one standard deviation). A volume-driven rig follows the actuator past such a "
-                     f"maximum; the model does not.")
-    if full.any():
-        share = data.series[0].pressure_share or PRESSURE_FORM_SHARE
-        notes.append(f"{int(full.sum())} of {total} rows read by the volume their rig set hold more than the model "
-                     f"takes up to its pressure maximum ({where}; {reach.get('reason') or 'the FE'}): each counts by "
-                     f"the share of its volume the model cannot take ({100 * share:.3g} % of the volume is one "
-                     f"standard deviation).")
-    if not beyond:
-        return notes
-    short = reach.get("full_bend_pressure_kpa") is None and reach.get("reason")
-    if short and beyond > REFUSE_BEYOND_FE * total:
-        raise SolveError(f"{beyond} of {total} rows need the model beyond {where}, where the FE's "
-                         f"characterisation of the design stopped ({reach['reason']}): the answer would rest on "
-                         f"extrapolation. Check the design (the FE must reach the recordings' bend) before diagnosing.")
-    return [*notes, f"{beyond} of {total} rows lie beyond the pressure the FE characterised ({where}"
-            + (f", where its solve stopped: {reach['reason']}" if short else ", past full bend") + "): the model "
-            "extrapolates its law there."]
-
-
-def _candidate_entry(c: Candidate) -> dict[str, Any]:
-    return {"effect": c.label, "heldout_chi2_per_point": round(c.heldout_chi2 / c.heldout_z.size, 4),
-            "heldout_chi2_gain": round(c.gain, 1), "heldout_gain_t": round(c.t_gain, 2),
-            "excess_removed": round(c.excess_share, 3),
-            "bootstrap_wins": round(c.stability, 3), "plausible": c.plausible,
-            "parameters": {k: float(f"{v:.6g}") for k, v in c.fit.values.items()}, "notes": c.notes}
-
-
-def _alternatives(decision: Decision) -> list[dict[str, str]]:
-    """When the runner-up fits nearly as well, the experiment that would separate them."""
-    if not decision.accepted or len(decision.ranked) < 2:
-        return []
-    best, second = decision.ranked[0], decision.ranked[1]
-    if second.heldout_chi2 > best.heldout_chi2 + 4.0 * np.sqrt(2.0 * best.heldout_z.size):
-        return []
-    name = second.fit.hypothesis.effects[0]
-    return [{"effect": name, "experiment": explain.SEPARATING_EXPERIMENT.get(name, ""),
-             "why": f"{name} fits the held-out data nearly as well ({second.heldout_chi2:.0f} vs "
-                    f"{best.heldout_chi2:.0f} chi-square)"}]

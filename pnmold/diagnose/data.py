@@ -7,7 +7,7 @@ chamber's pressure and the cavity's volume change). Each observable of each
 recording gets a noise level estimated from the data itself, so residuals of different
 units can be pooled as z-scores. Rows are grouped into *branches* (one cycle's inflation
 or deflation of one recording) and branches into short contiguous *blocks*; held-out
-error is computed by leaving out whole blocks, never single rows (DIAGNOSE.md: samples
+error is computed by leaving out whole blocks, never single rows (docs/diagnosis.md: samples
 next to each other are correlated).
 """
 

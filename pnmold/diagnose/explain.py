@@ -6,7 +6,7 @@ import numpy as np
 
 from pnmold.physics.reading import P_ATM_KPA
 
-#: the experiment that separates an effect from the ones it is confused with (DIAGNOSE.md)
+#: the experiment that separates an effect from the ones it is confused with (docs/diagnosis.md)
 SEPARATING_EXPERIMENT = {
     "gravity": "repeat the ramp with the actuator flipped (chambers down) or submerged in water",
     "strain_stiffening": "ramp to a higher pressure, or fit the rubber to a tensile test to large strain",
@@ -35,11 +35,18 @@ def effect_values(cand, effect) -> tuple[dict[str, float], dict[str, float]]:
     return values, spread
 
 
+def main_parameter(effect, values: dict[str, float]) -> tuple[str, str]:
+    """The parameter an effect's explanation names, of its fitted ``values``: its key and unit (the
+    effect's own parameter, or the one fitted instead)."""
+    key = effect.name if effect.name in values else next(iter(values))  # or the parameter fitted instead
+    unit_of = effect.unit if key == effect.name else next(x[1] for x in effect.extra if key.endswith("." + x[0]))
+    return key, unit_of
+
+
 def explanation(effect, values: dict[str, float], spread: dict[str, float], mismatch: list[dict],
                 rmse_before: float, rmse_after: float, unit: str) -> str:
-    key = effect.name if effect.name in values else next(iter(values))  # or the parameter fitted instead
+    key, unit_of = main_parameter(effect, values)
     main = values[key]
-    unit_of = effect.unit if key == effect.name else next(x[1] for x in effect.extra if key.endswith("." + x[0]))
     where = mismatch[0]["description"] if mismatch else "a small, spread-out misfit"
     return (f"The model left out {effect.description[0].lower() + effect.description[1:].rstrip('.')} "
             f"({effect.name}). What shows it: {where}; this is its fingerprint: "

@@ -29,7 +29,7 @@ MAX_STARTS = 2
 KEPT_PREDICTIONS = 512
 
 #: forward(effects, calibration) -> one prediction (columns by name) per recording;
-#: ``effects`` holds ``name`` -> value and ``name.param`` -> value (CONTRACTS.md §5)
+#: ``effects`` holds ``name`` -> value and ``name.param`` -> value (docs/effects.md)
 Forward = Callable[[dict[str, float], dict[str, float]], list[dict[str, np.ndarray]]]
 
 @dataclass(frozen=True)

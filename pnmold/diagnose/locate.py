@@ -52,7 +52,7 @@ def _groups(data: DataSet, i: int) -> list[tuple[dict, np.ndarray]]:
 
 def locate(data: DataSet, z_by_series: list[np.ndarray], limit: int = 3,
            residuals: list[np.ndarray] | None = None) -> list[dict]:
-    """The strongest non-overlapping windows of misfit, as CONTRACTS §6 ``mismatch`` entries. ``residuals``:
+    """The strongest non-overlapping windows of misfit, as ``mismatch`` entries (docs/json-schemas.md). ``residuals``:
     per series, measured minus predicted in the observable's units, said as the window's mean (default z x
     noise; a row out of the model's reach has a z-score beyond its residual, see :func:`.fitting.zscores`)."""
     found = []

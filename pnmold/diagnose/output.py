@@ -28,7 +28,7 @@ def write_report(diag: Diagnosis, folder: str | Path) -> Path:
 
 def _page(diag: Diagnosis, figure: Path) -> str:
     """A self-contained page in the build report's style, the figure inlined."""
-    from pnmold.report_html import esc, image, page, table
+    from pnmold.report.html import esc, image, page, table
 
     doc, fit = diag.doc, diag.doc["fit"]
     mismatch = "".join(f"<li>{esc(m['description'])}</li>" for m in doc["mismatch"]) or "<li>none</li>"

@@ -10,7 +10,6 @@ import numpy as np
 
 from pnmold.physics.protocol import read_by_volume
 
-from .core import Diagnosis
 from .fitting import REACH
 
 if TYPE_CHECKING:
@@ -39,8 +38,9 @@ def _residuals(panel, x: np.ndarray, s, pred: dict[str, np.ndarray], color: str,
                    label=f"{label}, past the model's pressure maximum")
 
 
-def fit_figure(diag: Diagnosis, path: str | Path | None = None, *, ax: Any = None) -> Figure:
-    """One column per series: data, baseline and final model on top, residuals below.
+def fit_figure(diag: Any, path: str | Path | None = None, *, ax: Any = None) -> Figure:
+    """One column per series of ``diag`` (a :class:`~pnmold.diagnose.core.Diagnosis`): data, baseline and
+    final model on top, residuals below.
 
     ``ax``: a 2 x (number of series) grid of axes to draw on (default a new figure);
     ``path``: also save the figure there (atomically). Returns the figure.

@@ -9,6 +9,7 @@ from pnmold.design import Design
 
 from .core import Diagnosis, diagnose
 from .data import MODEL_FORM_SHARE, observables_of
+from .inputs import DesignRef, DiagnosisModel, Reach
 from .model import diagnosis_effects, diagnosis_forward, read_all, stiffening_top
 
 
@@ -25,7 +26,6 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     the noise (:mod:`pnmold.physics.uncertainty`)."""
     from pnmold.physics.characterise import blocked_force_probe, characterise, uncertainty_runs
     from pnmold.physics.uncertainty import DesignFloor, check_uncertain
-    from pnmold.report import design_entry
 
     from .output import write_json_doc, write_report
 
@@ -35,8 +35,7 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     force = any(r.kind == "force" for r in recordings)
     if force:  # the model's blocked tip matched to the FE's
         c = blocked_force_probe(design, progress=progress)
-    reach = {"max_pressure_kpa": c.max_pressure_kpa, "full_bend_pressure_kpa": c.full_bend_pressure_kpa,
-             "reason": c.reason}
+    reach = Reach(c.max_pressure_kpa, c.full_bend_pressure_kpa, c.reason)
     floor = None
     if uncertain:
         floor = DesignFloor.of(design, uncertainty_runs(design, uncertain, blocked=force, progress=progress),
@@ -46,9 +45,11 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
         return floor.per_recording(recordings, observables_of, scale)
 
     def run(top: float) -> Diagnosis:  # the forward after the ladder: its model reads it
-        return diagnose(design_entry(design), recordings, diagnosis_forward(design, recordings),
-                        diagnosis_effects(recordings), seed=seed, reach=reach, model_form_share=model_form_share,
-                        stiffening_top_mpa=top, design_floor=design_floor if floor else None)
+        ref = DesignRef.of(design)  # as pnmold.report.build_report.design_entry names it
+        model = DiagnosisModel(diagnosis_forward(design, recordings), diagnosis_effects(recordings), reach=reach,
+                               stiffening_top_mpa=top, design_floor=design_floor if floor else None,
+                               bootstrap_seed=seed, model_form_share=model_form_share)
+        return diagnose(ref, recordings, model)
 
     top = stiffening_top(design, recordings, progress)
     diag = run(top)

@@ -131,7 +131,7 @@ def _increments(sta: Path) -> int:
 @dataclass(frozen=True)
 class TipComparison:
     """The tip of pnmold's FE and of CalculiX on the same exported problem (mm, frame of
-    CONTRACTS.md §2, x and z), at ``pressures_kpa``.
+    docs/frame-and-units.md, x and z), at ``pressures_kpa``.
 
     ``pnmold_mm`` is the run being compared (mean-dilatation volumetric term);
     ``pointwise_mm`` the same mesh and loads solved by pnmold with the pointwise penalty that
@@ -172,7 +172,7 @@ POINTWISE_PREDICTOR_ORDER = 2
 
 def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=None, pointwise: bool = True,
                           threads: int | None = None) -> TipComparison:
-    """Export ``run``'s problem (a :class:`pnmold.quickfe.FeRun`: its mesh, material, paper and
+    """Export ``run``'s problem (a :class:`pnmold.design_fe.FeRun`: its mesh, material, paper and
     gravity) at ``pressures_kpa`` into ``folder/actuator.inp``, run CalculiX on it and set its
     tip beside the run's (and, with ``pointwise``, beside pnmold's solve with the pointwise
     volumetric penalty of CalculiX's C3D10). The run must have converged at those pressures."""
@@ -181,13 +181,12 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     from pnmold.fem import solve_bending
     from pnmold.fem.newton import NewtonOptions
     from pnmold.fem.solver import SolveOptions
-    from pnmold.quickfe import material_of, membrane_of, regions_of
 
     from .abaqus import write_abaqus
     from .p2 import quadratic_mesh
 
     targets = sorted(float(p) for p in pressures_kpa if p > 0)
-    material, membrane, regions = material_of(run.design), membrane_of(run.design), regions_of(run.design)
+    material, membrane, regions = run.problem.material, run.problem.membrane, run.problem.regions
     wanted = ([0.0] if run.gravity_g is not None else []) + targets
 
     def tips_at(steps) -> np.ndarray:

@@ -2,14 +2,13 @@
 
 The mesh is made again from the build's own ``actuator.step`` and ``design.toml``, the way
 the build's quick FE made it (:func:`pnmold.mesh.mesh_actuator` with the size recorded in
-``report.json`` ``fem.mesh``, else :data:`pnmold.quickfe.BUILD_MESH`; gmsh runs on one
+``report.json`` ``fem.mesh``, else :data:`pnmold.design_fe.BUILD_MESH`; gmsh runs on one
 thread, so the mesh is the same node for node). The loads default to the build's: its
 orientation (chambers up, gravity on) and the pressures of its converged FE steps.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import logging
 from collections.abc import Sequence
@@ -17,7 +16,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pnmold.conventions import gravity_direction
 from pnmold.errors import UsageError
 from pnmold.tetmesh import MeshSize
 
@@ -55,7 +53,7 @@ def _read_build(build_dir: Path) -> tuple[Any, dict[str, Any]]:
 
 def build_mesh_size(fem: dict[str, Any]) -> MeshSize:
     """The mesh size a build's FE used (``report.json`` ``fem.mesh``), else the build default."""
-    from pnmold.quickfe import BUILD_MESH
+    from pnmold.design_fe import BUILD_MESH
 
     m = fem.get("mesh") or {}
     if m.get("wall_size_mm") and m.get("max_size_mm"):
@@ -76,8 +74,8 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
     size : the mesh (default: the build's, :func:`build_mesh_size`).
     options : :class:`.abaqus.DeckOptions` of the deck.
     """
+    from pnmold.design_fe import fe_problem
     from pnmold.mesh import mesh_actuator
-    from pnmold.quickfe import design_for_fe, material_of, membrane_of, regions_of
 
     from .abaqus import write_abaqus
     from .constants import material_constants
@@ -88,23 +86,20 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
         raise UsageError(f"--format: one of {', '.join(FORMATS)}, got {fmt!r}")
     build_dir = Path(build_dir)
     design, fem = _read_build(build_dir)
-    design, _ = design_for_fe(design, {})
     orientation = orientation or fem.get("orientation") or "chambers_up"
-    direction = gravity_direction(orientation, design.material.density_g_per_ml)
-    size = size or build_mesh_size(fem)
-    if direction is not None and direction[1] != 0 and size.half:
-        size = dataclasses.replace(size, half=False)  # out of the bending plane: the whole body
+    problem = fe_problem(design, orientation=orientation, size=size or build_mesh_size(fem))
+    design, size, direction = problem.design, problem.size, problem.gravity_g
     steps = fem.get("steps") or []
     pressures = tuple(float(p) for p in (pressures_kpa if pressures_kpa is not None
                                          else [s["pressure_kpa"] for s in steps]) if float(p) > 0)
     if fmt == "abaqus" and not pressures:
         raise UsageError(f"{build_dir}: the build has no FE curve (built with --no-fem?); give --pressures A:B:STEP")
     stretches = [s.get("max_principal_stretch") for s in steps if s.get("max_principal_stretch")]
-    material, membrane = material_of(design), membrane_of(design)
+    material, membrane = problem.material, problem.membrane
     doc = material_constants(material, membrane, max_stretch=max(stretches) if stretches else None,
                              stretch_source="largest principal stretch of the build's FE curve (report.json)"
                              if stretches else None)
-    regions = regions_of(design)
+    regions = problem.regions
     for name, rubber in regions.items():  # a second rubber: its constants beside the body's
         doc.setdefault("regions", {})[name] = {
             **{k: v for k, v in material_constants(rubber, None).items() if k not in ("schema", "units")},

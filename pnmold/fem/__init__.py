@@ -14,35 +14,34 @@ Formulation (details in the module docstrings):
 - :mod:`.kernels` -- compiled element kernels (energy, residual, tangent).
 - :mod:`.surface` -- compiled kernels of the paper sheet (compression relaxed: it
   wrinkles) and of the cavity pressure.
-- :mod:`.newton` / :mod:`.linsolve` -- Newton with an energy line search and a second-
-  order correction, under load or cavity-volume control; PARDISO LDL^T with the
-  analysis done once (SciPy's SuperLU where pypardiso is missing, or with
-  ``PNMOLD_LINEAR_SOLVER=scipy``).
-- :mod:`.path` -- gravity ramped by load control, the pressure by volume control (passes
-  pressure maxima), extrapolated predictors, step control on bend and iterations.
+- :mod:`.newton` -- Newton's iteration under load or cavity-volume control (convergence in
+  the residual or the energy norm, a factorisation reused through GMRES); its options,
+  result and counters in :mod:`.newton_types`.
+- :mod:`.linesearch` -- the energy (merit) line search along the Newton step with a
+  second-order correction.
+- :mod:`.tangent` / :mod:`.linsolve` -- the tangent factored (inertia counted and
+  corrected) or solved by GMRES preconditioned by the last factorisation, the bordered
+  Newton step; PARDISO LDL^T with the analysis done once (SciPy's SuperLU where pypardiso
+  is missing, or with ``PNMOLD_LINEAR_SOLVER=scipy``).
+- :mod:`.path` / :mod:`.states` -- gravity ramped by load control, the pressure by volume
+  control (passes pressure maxima); converged states, extrapolated predictors, step
+  control on bend and iterations.
 - :mod:`.failure` -- where a failed solve went wrong and what to try.
 - :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
-  :func:`blocked_force_slope` (the blocked force to first order in pressure),
-  :class:`Step` and :class:`Solution`.
+  :class:`Step` and :class:`Solution`; :mod:`.blocked` -- :func:`blocked_force_slope` (the
+  blocked force to first order in pressure).
 
     >>> from pnmold.fem import solve_bending
     >>> sol = solve_bending(mesh, max_pressure_kpa=80, gravity=(0, 0, -1))  # doctest: +SKIP
     >>> sol.full_bend_pressure_kpa, sol.steps[-1].bend_angle_deg            # doctest: +SKIP
 """
 
+from .blocked import BlockedSlope, blocked_force_slope
 from .material import Membrane, Yeoh
 from .model import Load, Model
 from .newton import Newton, NewtonOptions
 from .results import STOPS, PressureMaximum, Solution, Step, full_bend_pressure
-from .solver import (
-                     ELASTOSIL_M4601,
-                     PAPER,
-                     BlockedSlope,
-                     SolveOptions,
-                     blocked_force_slope,
-                     solve_bending,
-                     solve_blocked_force,
-)
+from .solver import ELASTOSIL_M4601, PAPER, SolveOptions, solve_bending, solve_blocked_force
 
 __all__ = [
     "ELASTOSIL_M4601",

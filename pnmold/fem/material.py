@@ -14,7 +14,7 @@ element by element (Simo-Taylor-Pister). That imposes one volume constraint per 
 instead of one per quadrature point (four), so it does not lock, and the unknowns and
 the solver stay displacement-only (symmetric, no saddle point). ``volumetric="penalty"``
 (U evaluated at each quadrature point) is kept for comparison; it locks as K grows
-(FEM_NOTES: K = 1000 mu collapsed).
+(docs/fe.md: with K = 1000 mu it collapsed).
 
 Default ``bulk_ratio`` K/mu = 200 (Poisson's ratio 0.4975). On the test beam (1 mm
 walls, 20 kPa) the tip moves 3.7% between K/mu = 200 and 1000 and 18% between 50 and
@@ -38,8 +38,8 @@ for 6.5 GPa paper on Elastosil M4601 (Es = 8 C10 = 0.88 MPa) 1.3e-3, on Ecoflex 
 (0.065 MPa) 2.4e-4. Beyond it the sheet buckles out of plane with a wavelength of
 1-2 cm and its compressive force stays near ``Ef t eps_c`` (0.9 and 0.16 N/mm). A
 membrane without bending stiffness has no such limit: pressed further, it buckles at the
-scale of the elements instead, a mesh-dependent instability -- the Ecoflex stalls of
-issue 17 (0.94/1.40/2.23 kPa on three meshes) had half the sheet in compression, down to
+scale of the elements instead, a mesh-dependent instability -- the Ecoflex stalls seen
+before it (0.94/1.40/2.23 kPa on three meshes) had half the sheet in compression, down to
 -0.68 N/mm, with negative pivots. The relaxed sheet keeps E*t in tension (the strain
 limit is unchanged) and holds compression at the wrinkling force. The half-space formula
 is an estimate (assumed: the sheet is embedded, rubber on both sides of finite
@@ -52,8 +52,8 @@ substrate's small-strain modulus (:meth:`Membrane.solved_on`; default 1000, assu
 Ecoflex 00-30. The paper is practically inextensible either way -- its strain stays near
 1/1000 of the rubber's -- but the 6.5 GPa sheet on a 0.05 MPa rubber (a contrast of 1e5)
 leaves Newton a tangent whose sheet terms swamp the rubber's: the sPN's curve stalled at
-49.1 kPa and the Ecoflex fPN's at 1.2 kPa with it, and both solve with the series sheet
-(issue 17). What it costs, measured on the fPN (chambers up, build mesh): full bend 47.95 kPa
+49.1 kPa and the Ecoflex fPN's at 1.2 kPa with it, and both solve with the series sheet. What it
+costs, measured on the fPN (chambers up, build mesh): full bend 47.95 kPa
 with the 6.5 GPa sheet, 47.60 kPa solved in series (-0.7%); on the 4 mm hollow test beam at
 40 kPa the tip moves 1.3% of its travel between contrast 1000 and 4000 and 0.4% between 4000
 and 16000 (``test_fem_path.py::test_sheet_contrast_barely_moves_the_bend``). A compliance added

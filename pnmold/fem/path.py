@@ -26,6 +26,9 @@ there as the named stop ``instability``. A failed try within :data:`CRITICAL_RES
 last converged state that meets such a tangent ends the stage the same way at once: the
 critical point is then located, and converged increments (which restart the halvings) would
 only creep toward it.
+
+The converged states, the predictors through them, the increments' sizes and
+:class:`PathFailure` are in :mod:`.states`.
 """
 
 from __future__ import annotations
@@ -37,101 +40,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import Evaluation, Load, Stresses
-from .newton import Newton, NewtonResult
+from .model import Evaluation, Load
+from .newton import Newton
+from .newton_types import NewtonResult
+from .states import (
+                     Control,
+                     OnStep,
+                     PathFailure,
+                     State,
+                     extrapolate,
+                     first_increment,
+                     interpolate_volume,
+                     next_increment,
+                     peak_volume,
+)
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class State:
-    """A converged state: path parameter ``t``, displacement, pressure (MPa), evaluation
-    and its stresses (for the mixed Newton's predicted tangent)."""
-
-    t: float
-    u: np.ndarray
-    p: float
-    ev: Evaluation
-    stresses: Stresses | None = None
-
-
-@dataclass(frozen=True)
-class Control:
-    """Step control of one stage (``t`` in the stage's own unit)."""
-
-    first_angle_deg: float = 8.0
-    first_move: float = 0.03
-    max_angle_deg: float = 40.0
-    max_step: float = math.inf
-    max_pressure_step_mpa: float = math.inf
-
-
-class PathFailure(Exception):
-    """An increment failed after the allowed cuts; ``last`` is the last converged state.
-
-    ``critical``: at the last try, cut at least :data:`CRITICAL_AFTER_CUTS` times or within
-    :data:`CRITICAL_RESOLUTION` of ``last``, the predicted state's tangent had more negative eigenvalues than
-    at ``last`` (under volume control, of the system held at the cavity volume): the
-    equilibrium path meets a critical point (a limit point or a bifurcation) within that
-    step -- the model loses stability there -- rather than Newton failing on a smooth path.
-    """
-
-    def __init__(self, what: str, last: State, target: float, result: NewtonResult | None,
-                 why: str, critical: bool = False):
-        self.what, self.last, self.target, self.result, self.why = what, last, target, result, why
-        self.critical = critical
-        super().__init__(why)
-
-
-#: on_step(state) -> (stop, bend angle in degrees); ``stop`` ends the stage there.
-OnStep = Callable[[State], tuple[bool, float]]
-
-
-def extrapolate(history: Sequence[State], t_new: float, order: int
-                ) -> tuple[np.ndarray, float, Stresses | None]:
-    """Lagrange extrapolation (or interpolation) of ``(u, p, stresses)`` to ``t_new``
-    through the last ``order + 1`` states."""
-    pts = list(history[-(order + 1):])
-    weights = []
-    for i, si in enumerate(pts):
-        w = 1.0
-        for j, sj in enumerate(pts):
-            if j != i:
-                w *= (t_new - sj.t) / (si.t - sj.t)
-        weights.append(w)
-    u = sum(w * s.u for w, s in zip(weights, pts, strict=True))
-    p = float(sum(w * s.p for w, s in zip(weights, pts, strict=True)))
-    stresses = None
-    if all(s.stresses is not None for s in pts):
-        stresses = pts[-1].stresses.combine(weights, [s.stresses for s in pts])
-    return u, p, stresses
-
-
-def _first_step(newton: Newton, rate_u: np.ndarray, angle: Callable[[np.ndarray], float],
-                start: State, control: Control) -> float:
-    """The increment of ``t`` whose tangent prediction bends ``first_angle_deg`` and moves
-    no node more than ``first_move`` of the body's size."""
-    big = float(np.max(np.abs(rate_u))) if rate_u.size else 0.0
-    if big == 0.0:
-        return math.inf
-    probe = 0.01 * newton.span / big  # a small step: the angle's rate by difference
-    rate_angle = abs(angle(start.u + probe * rate_u) - angle(start.u)) / probe
-    dt = control.first_move * newton.span / big
-    if rate_angle > 0:
-        dt = min(dt, control.first_angle_deg / rate_angle)
-    return dt
-
-
-def _next_step(newton: Newton, dt: float, tangents: int, dangle: float, dp: float,
-               control: Control) -> float:
-    opt = newton.options
-    grow = min(max(opt.target_iterations / max(tangents, 1), 0.5), opt.growth)
-    out = dt * grow
-    if dangle > 1e-9:
-        out = min(out, dt * control.max_angle_deg / dangle)
-    if dp > 0 and math.isfinite(control.max_pressure_step_mpa):
-        out = min(out, dt * control.max_pressure_step_mpa / dp)
-    return min(out, control.max_step)
 
 
 #: halvings before a failed increment's last try counts as short enough to tell a critical
@@ -188,7 +112,7 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
     rate_rhs = -(newton.evaluate(start.u, load1).residual - newton.evaluate(start.u, load0).residual)
     rate_u = _tangent_load(newton, start, load0, rate_rhs)
     base = newton.inertia
-    dt = first_step or _first_step(newton, rate_u, angle, start, control)
+    dt = first_step or first_increment(newton, rate_u, angle, start, control)
     dt = min(dt, t_end - t)
     history, state, cuts, last_angle = [start], start, 0, angle(start.u)
     done = 0.0  # the work of the load so far (N mm), the scale of Newton's energy criterion
@@ -224,7 +148,7 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
         bend = angle(state.u)
         log.info("%s %.4g %s: bend %.1f deg, %d factorisations", what, t, unit, bend,
                  res.factorizations)
-        dt = _next_step(newton, step, res.tangents, abs(bend - last_angle), 0.0, control)
+        dt = next_increment(newton, step, res.tangents, abs(bend - last_angle), 0.0, control)
         last_angle = bend
         if targets is None or any(abs(t - s) <= eps for s in stops):
             stop, _ = on_step(state)
@@ -250,45 +174,6 @@ def continuation(newton: Newton, u: np.ndarray, load_at: Callable[[float], Load]
     return end.t, end.u
 
 
-def _pressure_at(history: Sequence[State], t: float, order: int) -> float:
-    pts = list(history[-(order + 1):])
-    p = 0.0
-    for i, si in enumerate(pts):
-        w = 1.0
-        for j, sj in enumerate(pts):
-            if j != i:
-                w *= (t - sj.t) / (si.t - sj.t)
-        p += w * si.p
-    return p
-
-
-def _interpolate_volume(history: Sequence[State], p_target: float, order: int) -> float:
-    """The volume between the last two states where the interpolated pressure is
-    ``p_target`` (bisection on the Lagrange interpolant; the pressure rises there)."""
-    lo, hi = history[-2].t, history[-1].t
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        if _pressure_at(history, mid, order) < p_target:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
-def _peak(history: Sequence[State]) -> float:
-    """Volume of the pressure maximum: vertex of the parabola through the last three
-    (volume, pressure) points, kept inside their span."""
-    if len(history) < 3:
-        return history[-2].t
-    (t0, p0), (t1, p1), (t2, p2) = [(s.t, s.p) for s in history[-3:]]
-    d01, d12 = (p1 - p0) / (t1 - t0), (p2 - p1) / (t2 - t1)
-    curv = (d12 - d01) / (t2 - t0)
-    if curv >= 0:
-        return t1
-    vertex = 0.5 * (t0 + t1) - d01 / (2.0 * curv)
-    return min(max(vertex, t0), t2)
-
-
 def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
             angle: Callable[[np.ndarray], float], on_step: OnStep, control: Control, *,
             p_limit: float, targets: Sequence[float] | None = None,
@@ -305,17 +190,10 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     ``past_maximum``).
     """
     opt = newton.options
-    m = newton.model
-    first = State(start.ev.cavity_volume_mm3, start.u, start.p, start.ev, start.stresses)
-    newton.factor(first.u, load_at(first.p))
-    g = first.ev.volume_gradient[m.free]
-    a = newton.back_solve(g)
-    compliance = float(g @ a)  # dV/dp at the start
-    base = newton.negatives(g)
-    rate_u = np.zeros(m.ndof)
-    rate_u[m.free] = a / compliance
-    rate_p = 1.0 / compliance
-    dv = _first_step(newton, rate_u, angle, first, control)
+    first, rate_u, rate_p, compliance, base = _volume_rates(newton, start, load_at)
+    stage = _Inflation(newton, load_at, first, rate_u, rate_p, base, on_step, p_limit, targets,
+                       past_maximum, on_maximum)
+    dv = first_increment(newton, rate_u, angle, first, control)
     if math.isfinite(control.max_pressure_step_mpa):
         dv = min(dv, control.max_pressure_step_mpa * compliance)
     pending = sorted({*(p for p in (targets or ()) if p > first.p), p_limit})
@@ -325,26 +203,9 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     peaked = False
     done = 0.0  # the work of the pressure so far (N mm), the scale of Newton's energy criterion
     while True:
-        v_new = state.t + dv
-        if not v_new > state.t:  # the increment vanished in rounding: a stall, said as one
-            raise PathFailure("pressure", state, v_new, None,
-                              f"the volume increment shrank to {dv:.3g} mm^3, below rounding",
-                              _critical(newton, CRITICAL_AFTER_CUTS, base))
-        if len(history) == 1:
-            u_pred, p_pred, s_pred = state.u + dv * rate_u, state.p + dv * rate_p, state.stresses
-        else:
-            u_pred, p_pred, s_pred = extrapolate(history, v_new, opt.predictor_order)
-        res = newton.solve(u_pred, load_at(p_pred), volume=v_new, stresses=s_pred,
-                           work=done + abs((p_pred - state.p) * (v_new - state.t)), strict=cuts < 2)
+        v_new, res = _volume_try(stage, history, state, dv, done, cuts)
         if not res.converged:
-            cuts += 1
-            newton.stats.cuts += 1
-            log.info("volume %.5g mL: Newton failed (%s; residuals %s); cutting the step",
-                     v_new / 1000.0, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
-            near = dv <= CRITICAL_RESOLUTION * (state.t - first.t)
-            if cuts > opt.max_cuts or (near and _critical(newton, cuts, base, near)):
-                raise PathFailure("pressure", state, v_new, res, f"failed after {cuts - 1} cuts: {res.why}",
-                                  _critical(newton, cuts, base, near))
+            cuts = _failed_try(stage, state, v_new, dv, res, cuts)
             dv *= 0.5
             continue
         newton.stats.increments += 1
@@ -357,24 +218,11 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
         ptol = 1e-5 * abs(state.p) + 1e-12
         if not peaked and new.p < state.p - ptol:
             peaked = True
-            top = _solve_peak(newton, history + [new], load_at, done)
-            fresh = top is not None and top.p > state.p and top.t > state.t
-            top = top if fresh else state  # the last state on the rise, already reported
-            log.info("pressure maximum %.4g kPa at volume +%.4g mL", 1000.0 * top.p,
-                     (top.t - first.t) / 1000.0)
-            if on_maximum is not None:
-                on_maximum(top)
-            if not past_maximum:
-                if targets is None and fresh:
-                    on_step(top)
+            top = _maximum(stage, history + [new], state, done)
+            if top is not None:
                 return top, "pressure_maximum"
-        landings = []
-        for target in [q for q in pending if state.p < q <= new.p]:
-            landed = _land(newton, history + [new], target, load_at, done)
-            if landed is None:
-                break
-            landings.append(landed)
-        if len(landings) < sum(state.p < q <= new.p for q in pending):
+        landings = _landings(stage, history + [new], state, new, pending, done)
+        if landings is None:
             cuts += 1  # a requested pressure could not be landed on: a shorter increment
             newton.stats.cuts += 1
             if cuts > opt.max_cuts:
@@ -382,32 +230,146 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
                                   f"landing on a requested pressure failed after {cuts - 1} cuts")
             dv *= 0.5
             continue
-        for landed in landings:
-            target = pending.pop(0)
-            stop, _ = on_step(landed)
-            if target >= p_limit:
-                return landed, "pressure_limit"
-            if targets is not None and not pending:
-                return landed, "targets"
-            if stop:
-                return landed, "stopped"
-        if new.p >= p_limit:  # exactly on the limit: already reported as landed
-            return new, "pressure_limit"
-        if targets is None:
-            stop, _ = on_step(new)
-            if stop:
-                return new, "stopped"
+        end = _report(stage, landings, new, pending)
+        if end is not None:
+            return end
         history = (history + [new])[-(opt.predictor_order + 2):]
         dp = new.p - state.p
-        dv = _next_step(newton, v_new - state.t, res.tangents, abs(bend - last_angle),
+        dv = next_increment(newton, v_new - state.t, res.tangents, abs(bend - last_angle),
                         dp, control)
         state, last_angle, cuts = new, bend, 0
+
+
+@dataclass(frozen=True)
+class _Inflation:
+    """What a volume-controlled stage (:func:`inflate`) holds fixed: the solver and the load, the
+    start (``t`` its cavity volume), the tangent's rates there and the count of negative
+    eigenvalues held at the volume, the stops and the callbacks."""
+
+    newton: Newton
+    load_at: Callable[[float], Load]
+    first: State
+    rate_u: np.ndarray
+    rate_p: float
+    base: int
+    on_step: OnStep
+    p_limit: float
+    targets: Sequence[float] | None
+    past_maximum: bool
+    on_maximum: Callable[[State], None] | None
+
+
+def _volume_rates(newton: Newton, start: State, load_at: Callable[[float], Load]
+                  ) -> tuple[State, np.ndarray, float, float, int]:
+    """The start of a volume-controlled stage (``t`` its cavity volume), the rates of the
+    displacement and the pressure with the volume there (one factorisation), the compliance
+    dV/dp and the negative eigenvalues of the tangent held at the volume."""
+    m = newton.model
+    first = State(start.ev.cavity_volume_mm3, start.u, start.p, start.ev, start.stresses)
+    newton.factor(first.u, load_at(first.p))
+    g = first.ev.volume_gradient[m.free]
+    a = newton.back_solve(g)
+    compliance = float(g @ a)  # dV/dp at the start
+    base = newton.negatives(g)
+    rate_u = np.zeros(m.ndof)
+    rate_u[m.free] = a / compliance
+    rate_p = 1.0 / compliance
+    return first, rate_u, rate_p, compliance, base
+
+
+def _volume_try(stage: _Inflation, history: Sequence[State], state: State, dv: float, done: float,
+                cuts: int) -> tuple[float, NewtonResult]:
+    """The increment ``dv`` of the volume from ``state``: predicted (the start's tangent, then
+    extrapolated) and solved by Newton; a :class:`PathFailure` where ``dv`` vanished in rounding."""
+    newton = stage.newton
+    v_new = state.t + dv
+    if not v_new > state.t:  # the increment vanished in rounding: a stall, said as one
+        raise PathFailure("pressure", state, v_new, None,
+                          f"the volume increment shrank to {dv:.3g} mm^3, below rounding",
+                          _critical(newton, CRITICAL_AFTER_CUTS, stage.base))
+    if len(history) == 1:
+        u_pred, p_pred, s_pred = state.u + dv * stage.rate_u, state.p + dv * stage.rate_p, state.stresses
+    else:
+        u_pred, p_pred, s_pred = extrapolate(history, v_new, newton.options.predictor_order)
+    res = newton.solve(u_pred, stage.load_at(p_pred), volume=v_new, stresses=s_pred,
+                       work=done + abs((p_pred - state.p) * (v_new - state.t)), strict=cuts < 2)
+    return v_new, res
+
+
+def _failed_try(stage: _Inflation, state: State, v_new: float, dv: float, res: NewtonResult,
+                cuts: int) -> int:
+    """Count Newton's failure at ``v_new`` as a cut and return the cuts; a :class:`PathFailure`
+    after ``max_cuts``, or at once where a try close to ``state`` met a critical point."""
+    newton = stage.newton
+    cuts += 1
+    newton.stats.cuts += 1
+    log.info("volume %.5g mL: Newton failed (%s; residuals %s); cutting the step",
+             v_new / 1000.0, res.why, ", ".join(f"{h:.2e}" for h in res.residuals[-4:]))
+    near = dv <= CRITICAL_RESOLUTION * (state.t - stage.first.t)
+    if cuts > newton.options.max_cuts or (near and _critical(newton, cuts, stage.base, near)):
+        raise PathFailure("pressure", state, v_new, res, f"failed after {cuts - 1} cuts: {res.why}",
+                          _critical(newton, cuts, stage.base, near))
+    return cuts
+
+
+def _maximum(stage: _Inflation, history: Sequence[State], state: State, work: float) -> State | None:
+    """The pressure fell from ``state`` to ``history[-1]``: the maximum between them located and
+    given to ``on_maximum``; the state there when the stage ends at it, else None."""
+    top = _solve_peak(stage.newton, history, stage.load_at, work)
+    fresh = top is not None and top.p > state.p and top.t > state.t
+    top = top if fresh else state  # the last state on the rise, already reported
+    log.info("pressure maximum %.4g kPa at volume +%.4g mL", 1000.0 * top.p,
+             (top.t - stage.first.t) / 1000.0)
+    if stage.on_maximum is not None:
+        stage.on_maximum(top)
+    if stage.past_maximum:
+        return None
+    if stage.targets is None and fresh:
+        stage.on_step(top)
+    return top
+
+
+def _landings(stage: _Inflation, history: Sequence[State], state: State, new: State,
+              pending: Sequence[float], work: float) -> list[State] | None:
+    """The converged states at the ``pending`` pressures passed from ``state`` to ``new``
+    (``history[-1]``), in order; None when one could not be landed on."""
+    landings = []
+    for target in [q for q in pending if state.p < q <= new.p]:
+        landed = _land(stage.newton, history, target, stage.load_at, work)
+        if landed is None:
+            break
+        landings.append(landed)
+    if len(landings) < sum(state.p < q <= new.p for q in pending):
+        return None
+    return landings
+
+
+def _report(stage: _Inflation, landings: Sequence[State], new: State, pending: list[float]
+            ) -> tuple[State, str] | None:
+    """Report the ``landings`` (popping their pressures from ``pending``), then ``new`` where
+    every increment is reported; ``(state, why)`` when the stage ends there, else None."""
+    for landed in landings:
+        target = pending.pop(0)
+        stop, _ = stage.on_step(landed)
+        if target >= stage.p_limit:
+            return landed, "pressure_limit"
+        if stage.targets is not None and not pending:
+            return landed, "targets"
+        if stop:
+            return landed, "stopped"
+    if new.p >= stage.p_limit:  # exactly on the limit: already reported as landed
+        return new, "pressure_limit"
+    if stage.targets is None:
+        stop, _ = stage.on_step(new)
+        if stop:
+            return new, "stopped"
+    return None
 
 
 def _solve_peak(newton: Newton, history: Sequence[State], load_at: Callable[[float], Load],
                 work: float) -> State | None:
     """The converged state at the located pressure maximum (volume control), or None."""
-    v = _peak(history)
+    v = peak_volume(history)
     u_pred, p_pred, s_pred = extrapolate(history, v, min(newton.options.predictor_order,
                                                          len(history) - 1))
     res = newton.solve(u_pred, load_at(p_pred), volume=v, stresses=s_pred, work=work,
@@ -421,7 +383,7 @@ def _land(newton: Newton, history: Sequence[State], p_target: float,
     """The converged state at exactly ``p_target`` between the last two states (pressure
     control from an interpolated predictor), or None."""
     order = min(newton.options.predictor_order, len(history) - 1)
-    v = _interpolate_volume(history, p_target, order)
+    v = interpolate_volume(history, p_target, order)
     u_pred, _, s_pred = extrapolate(history, v, order)
     res = newton.solve(u_pred, load_at(p_target), stresses=s_pred, work=work, strict=False)
     if not res.converged:

@@ -1,6 +1,6 @@
 """What a solve reports: :class:`Step` per converged load, :class:`Solution` per curve.
 
-Observables follow CONTRACTS.md section 2: the tip is the mesh's ``tip_mm`` point followed
+Observables follow docs/frame-and-units.md: the tip is the mesh's ``tip_mm`` point followed
 by the displacement field (P2-interpolated inside its tetrahedron); the bend angle is the
 best-fit rotation about +y of the ``free_end`` face's nodes, positive when the actuator
 curls toward -z (the paper side), unwrapped along the curve so a full circle is 360.

@@ -12,12 +12,12 @@ rigid frictionless plane ``z = tip_z - gap`` under the tip, enforced by a penalt
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import numpy as np
 
@@ -157,6 +157,51 @@ class _Setup:
         return stats
 
 
+class _Curve:
+    """The curve as it is solved: the :class:`Step`, the node shape and the displacement of
+    every reported state, and what ended it (``found``: the stretch, the pressure maximum, the
+    instability and its mode)."""
+
+    def __init__(self, setup: _Setup, mesh: TetMesh, blocked: bool, max_stretch: float | None,
+                 t_start: float):
+        self.setup, self.mesh, self.blocked = setup, mesh, blocked
+        self.max_stretch, self.t_start = max_stretch, t_start
+        self.steps: list[Step] = []
+        self.shapes: list[np.ndarray] = []
+        self.states: list[np.ndarray] = []
+        self.found: dict[str, object] = {}
+
+    def report(self, state: State) -> tuple[bool, float]:
+        """Record a converged state; whether the curve stops there (stretch, full bend)."""
+        setup, blocked, max_stretch = self.setup, self.blocked, self.max_stretch
+        step = setup.observer.step(1000.0 * state.p, state.u, state.ev, blocked)
+        self.steps.append(step)
+        self.shapes.append(state.u.reshape(-1, 3)[:self.mesh.n_nodes].copy())
+        self.states.append(state.u.copy())
+        log.info("%.4g kPa: angle %.1f deg, tip (%.2f, %.2f) mm, volume %.4g mL%s",
+                 step.pressure_kpa, step.bend_angle_deg, step.tip_x_mm, step.tip_z_mm,
+                 step.cavity_volume_ml, f", force {step.force_n:.3g} N" if blocked else "")
+        if max_stretch is not None and step.max_principal_stretch > max_stretch:
+            self.found["stretch"] = step
+            return True, step.bend_angle_deg
+        full = (setup.options.stop_at_full_bend and not blocked
+                and step.bend_angle_deg >= FULL_BEND_DEG)
+        return full, step.bend_angle_deg
+
+    def at_maximum(self, state: State) -> None:
+        """Record the pressure maximum at ``state``."""
+        step = self.setup.observer.step(1000.0 * state.p, state.u, state.ev, self.blocked)
+        self.found["maximum"] = PressureMaximum(step.pressure_kpa, step.bend_angle_deg,
+                                                step.cavity_volume_ml)
+
+    def partial(self, reason: str) -> Solution:
+        """The curve up to here, as a failed :class:`Solution`."""
+        shapes = self.shapes
+        return Solution(tuple(self.steps), shapes[-1] if shapes else np.zeros((self.mesh.n_nodes, 3)),
+                        None, reason, self.setup.stats(self.t_start), tuple(shapes), tuple(self.states),
+                        "failed", self.found.get("maximum"))
+
+
 @one_blas_thread
 def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float,
            targets: list[float] | None, gravity: Sequence[float] | None,
@@ -168,88 +213,97 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
     setup = _Setup(mesh, material, membrane, gravity, plane, options, regions)
     stage = "blocked force" if blocked else "pressure"
     max_stretch = options.max_stretch or material.stretch_at_break
-    steps: list[Step] = []
-    shapes: list[np.ndarray] = []
-    states: list[np.ndarray] = []
-    found: dict[str, object] = {}
-
-    def report(state: State) -> tuple[bool, float]:
-        step = setup.observer.step(1000.0 * state.p, state.u, state.ev, blocked)
-        steps.append(step)
-        shapes.append(state.u.reshape(-1, 3)[:mesh.n_nodes].copy())
-        states.append(state.u.copy())
-        log.info("%.4g kPa: angle %.1f deg, tip (%.2f, %.2f) mm, volume %.4g mL%s",
-                 step.pressure_kpa, step.bend_angle_deg, step.tip_x_mm, step.tip_z_mm,
-                 step.cavity_volume_ml, f", force {step.force_n:.3g} N" if blocked else "")
-        if max_stretch is not None and step.max_principal_stretch > max_stretch:
-            found["stretch"] = step
-            return True, step.bend_angle_deg
-        full = options.stop_at_full_bend and not blocked and step.bend_angle_deg >= FULL_BEND_DEG
-        return full, step.bend_angle_deg
-
-    def at_maximum(state: State) -> None:
-        step = setup.observer.step(1000.0 * state.p, state.u, state.ev, blocked)
-        found["maximum"] = PressureMaximum(step.pressure_kpa, step.bend_angle_deg,
-                                           step.cavity_volume_ml)
-
-    def partial(reason: str) -> Solution:
-        return Solution(tuple(steps), shapes[-1] if shapes else np.zeros((mesh.n_nodes, 3)),
-                        None, reason, setup.stats(t_start), tuple(shapes), tuple(states),
-                        "failed", found.get("maximum"))
-
+    curve = _Curve(setup, mesh, blocked, max_stretch, t_start)
     try:
-        state = setup.rest()
-        failed, critical_load = None, None  # a critical point: the load there, to find its mode
-        try:
-            state = setup.gravity(state)
-        except PathFailure as fail:
-            if not fail.critical:
-                err = setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
-                                  "(no pressure yet)", None, 0.0)
-                err.partial = partial(str(err))
-                raise err from None
-            failed, state = fail, fail.last  # it buckles under its own weight: a physical end
-            critical_load = setup.load(0.0, fail.last.t)
-            found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and before any "
-                                          f"pressure (the last try {fail.target - fail.last.t:.2g} g more)")
-        report(State(state.t, state.u, 0.0, state.ev, state.stresses))
-        n0 = setup.newton.stats.factorizations
-        try:
-            if failed is None:
-                _, why = inflate(setup.newton, state, setup.load, setup.angle, report,
-                                 options.control(), p_limit=pmax / 1000.0,
-                                 targets=[p / 1000.0 for p in targets] if targets else None,
-                                 past_maximum=options.past_pressure_maximum, on_maximum=at_maximum)
-        except PathFailure as fail:
-            failed = fail
-            if fail.critical and fail.last.p > 0:
-                critical_load = setup.load(fail.last.p)
-                found["instability_where"] = f" (the last try {abs(fail.target - fail.last.t) / 1000.0:.2g} mL further)"
-        if critical_load is not None:  # a physical end
-            why, last = "instability", failed.last
-            found["instability"] = setup.observer.step(1000.0 * last.p, last.u, last.ev, blocked)
-            found["instability_mode"] = failure.softest_mode(setup.newton, last.u, critical_load)
-            if steps[-1].pressure_kpa < found["instability"].pressure_kpa:
-                report(last)
-        elif failed is not None:
-            last = steps[-1].pressure_kpa if steps else 0.0
-            err = setup.error(stage, failed, f"{1000.0 * failed.last.p:.4g} kPa (last converged; "
-                              f"bend {steps[-1].bend_angle_deg:.1f} deg)", None, last)
-            err.args = (f"{err.args[0]}; last converged pressure {last:.4g} kPa",)
-            err.partial = partial(str(err))
-            raise err from None
-        setup.newton.stats.stage_factorizations[stage] = setup.newton.stats.factorizations - n0
+        why = _stages(curve, stage, pmax, targets)
     finally:
         setup.newton.linear.release()
-    stop, reason, fb = _stop(why, steps, found, blocked, max_stretch)
+    stop, reason, fb = _stop(why, curve.steps, curve.found, blocked, max_stretch)
     stats = setup.stats(t_start)
     log.info("curve: %d unknowns, %d increments, %d factorisations (%s), %.1f s; %s",
              stats["unknowns"], stats["increments"], stats["factorizations"],
              ", ".join(f"{k} {v}" for k, v in stats["stage_factorizations"].items()),
              stats["total_s"], reason or "full bend")
-    displacement = shapes[-1]
-    return Solution(tuple(steps), displacement, fb, reason, stats, tuple(shapes), tuple(states),
-                    stop, found.get("maximum"))
+    displacement = curve.shapes[-1]
+    return Solution(tuple(curve.steps), displacement, fb, reason, stats, tuple(curve.shapes),
+                    tuple(curve.states), stop, curve.found.get("maximum"))
+
+
+def _stages(curve: _Curve, stage: str, pmax: float, targets: list[float] | None) -> str:
+    """Gravity, then the pressure (``stage``); why the pressure stage ended. A critical point
+    ends the curve as ``instability``; any other failure raises :class:`SolveError`."""
+    setup = curve.setup
+    state, failed, critical_load = _gravity_stage(curve)
+    curve.report(State(state.t, state.u, 0.0, state.ev, state.stresses))
+    n0 = setup.newton.stats.factorizations
+    if failed is None:
+        why, failed, critical_load = _pressure_stage(curve, state, pmax, targets)
+    if critical_load is not None:  # a physical end
+        why = _instability(curve, failed, critical_load)
+    elif failed is not None:
+        _raise_pressure_failure(curve, stage, failed)
+    setup.newton.stats.stage_factorizations[stage] = setup.newton.stats.factorizations - n0
+    return why
+
+
+def _gravity_stage(curve: _Curve) -> tuple[State, PathFailure | None, Load | None]:
+    """The rest state under its weight; at a critical point (it buckles under its own weight:
+    a physical end) the last converged state, the failure and the load there."""
+    setup = curve.setup
+    state = setup.rest()
+    try:
+        return setup.gravity(state), None, None
+    except PathFailure as fail:
+        if not fail.critical:
+            err = setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
+                              "(no pressure yet)", None, 0.0)
+            err.partial = curve.partial(str(err))
+            raise err from None
+        critical_load = setup.load(0.0, fail.last.t)
+        curve.found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and before any "
+                                            f"pressure (the last try {fail.target - fail.last.t:.2g} g more)")
+        return fail.last, fail, critical_load
+
+
+def _pressure_stage(curve: _Curve, state: State, pmax: float, targets: list[float] | None
+                    ) -> tuple[str | None, PathFailure | None, Load | None]:
+    """Inflate from ``state``: why it ended, or the failure (and the load at a critical point)."""
+    setup, options = curve.setup, curve.setup.options
+    try:
+        _, why = inflate(setup.newton, state, setup.load, setup.angle, curve.report,
+                         options.control(), p_limit=pmax / 1000.0,
+                         targets=[p / 1000.0 for p in targets] if targets else None,
+                         past_maximum=options.past_pressure_maximum, on_maximum=curve.at_maximum)
+    except PathFailure as fail:
+        critical_load = None
+        if fail.critical and fail.last.p > 0:
+            critical_load = setup.load(fail.last.p)
+            curve.found["instability_where"] = (f" (the last try {abs(fail.target - fail.last.t) / 1000.0:.2g} "
+                                                "mL further)")
+        return None, fail, critical_load
+    return why, None, None
+
+
+def _instability(curve: _Curve, failed: PathFailure, critical_load: Load) -> str:
+    """End the curve at the critical point after ``failed.last``: its step and softest mode."""
+    setup, found = curve.setup, curve.found
+    why, last = "instability", failed.last
+    found["instability"] = setup.observer.step(1000.0 * last.p, last.u, last.ev, curve.blocked)
+    found["instability_mode"] = failure.softest_mode(setup.newton, last.u, critical_load)
+    if curve.steps[-1].pressure_kpa < found["instability"].pressure_kpa:
+        curve.report(last)
+    return why
+
+
+def _raise_pressure_failure(curve: _Curve, stage: str, failed: PathFailure) -> NoReturn:
+    """The pressure stage failed (not at a critical point): a :class:`SolveError` with the partial curve."""
+    steps = curve.steps
+    last = steps[-1].pressure_kpa if steps else 0.0
+    err = curve.setup.error(stage, failed, f"{1000.0 * failed.last.p:.4g} kPa (last converged; "
+                            f"bend {steps[-1].bend_angle_deg:.1f} deg)", None, last)
+    err.args = (f"{err.args[0]}; last converged pressure {last:.4g} kPa",)
+    err.partial = curve.partial(str(err))
+    raise err from None
 
 
 def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
@@ -343,73 +397,3 @@ def solve_blocked_force(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
         raise DesignError("gap_mm", f"must be >= 0, got {gap_mm}")
     return _curve(mesh, material, membrane, pmax, targets, gravity, float(gap_mm),
                   options or SolveOptions(), regions)
-
-
-@dataclass(frozen=True)
-class BlockedSlope:
-    """The blocked tip force to first order in pressure: ``force0_n + slope_n_per_kpa * p``.
-
-    Linearised about the unpressurised state resting on the plane (gravity applied): one
-    extra factorisation and one solve after the gravity stage, instead of a nonlinear curve
-    that costs minutes (the tip pins while the middle arches). Tests compare it with
-    :func:`solve_blocked_force` where both run.
-    """
-
-    force0_n: float
-    slope_n_per_kpa: float
-    unknowns: int
-    total_s: float
-
-    def force_n(self, pressure_kpa: float) -> float:
-        return self.force0_n + self.slope_n_per_kpa * float(pressure_kpa)
-
-
-def _without_krylov(options: SolveOptions) -> SolveOptions:
-    """``options`` factoring every tangent: against the plane, a later Newton iterate's tangent
-    differs from the increment's first by the contact penalty of the nodes that touched down
-    since, which the first tangent's factorisation does not precondition (GMRES ran its 30
-    products and was factored after all). Measured on the fPN's build mesh with gravity:
-    the rest state on the plane in 10.2 s with GMRES, 6.0 s without, the slope the same to 2e-7."""
-    return dataclasses.replace(options, newton=dataclasses.replace(options.newton, krylov_iterations=0))
-
-
-@one_blas_thread
-def blocked_force_slope(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
-                        membrane: Membrane | None = PAPER, *, gap_mm: float = 0.0,
-                        gravity: Sequence[float] | None = None,
-                        options: SolveOptions | None = None,
-                        regions: Mapping[str, Yeoh] | None = None) -> BlockedSlope:
-    """:class:`BlockedSlope` of a clamped actuator against the plane ``z = tip_z - gap_mm``.
-
-    The pressure's load vector at the rest state, dR/dp (follower pressure on the
-    reference geometry: exact difference of two residuals), is solved with the tangent
-    (contact penalty included for nodes on the plane); the reaction's change is the
-    penalty on those nodes' z-motion. Raises :class:`SolveError` if gravity fails.
-    """
-    options = _without_krylov(options or SolveOptions())
-    if gap_mm < 0:
-        raise DesignError("gap_mm", f"must be >= 0, got {gap_mm}")
-    t_start = time.perf_counter()
-    plane = mesh.tip_mm[2] - gap_mm
-    setup = _Setup(mesh, material, membrane, gravity, plane, options, regions)
-    model, newton = setup.model, setup.newton
-    k = options.contact_stiffness_n_per_mm
-    try:
-        try:
-            u = setup.gravity(setup.rest()).u
-        except PathFailure as fail:
-            raise setup.error("gravity", fail, f"{fail.last.t:.4g} g of {fail.target:.4g} g "
-                              "(the actuator resting on the blocking plane)", None, 0.0) from None
-        rest = newton.factor(u, setup.load(0.0))
-        unit = newton.evaluate(u, setup.load(0.001))  # 1 kPa more, same geometry
-        du = np.zeros(model.ndof)
-        du[model.free] = -newton.back_solve((unit.residual - rest.residual)[model.free])
-    finally:
-        newton.linear.release()
-    zdofs = 3 * model.contact_nodes + 2
-    gap = model.X[model.contact_nodes, 2] + u[zdofs] - plane
-    closed = gap <= 0
-    scale = 2.0 if mesh.half else 1.0  # a half model carries half the force
-    slope = float(-k * du[zdofs][closed].sum()) * scale
-    return BlockedSlope(force0_n=float(rest.contact_force_n) * scale, slope_n_per_kpa=slope,
-                        unknowns=int(model.free.size), total_s=time.perf_counter() - t_start)

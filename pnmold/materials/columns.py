@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import re
 
-from pnmold.units import PRESSURE_UNITS, PSI_KPA
+from pnmold.recording.units import PRESSURE_UNITS, PSI_KPA
 
 #: role -> the names that mean it (lower case, letters and digits only)
 ROLES = {

@@ -4,7 +4,10 @@
   holds the result (free-bending law, hinge compliance, variant runs), :mod:`.identify` the pure
   identification of the hinges from the FE's shapes.
 - :mod:`.rom` -- :class:`ReducedModel`: a planar rod of the bottom face carrying that law with
-  gravity, a blocking plane, and the catalogued effects; a curve in milliseconds.
+  gravity, a blocking plane, and the catalogued effects; a curve in milliseconds
+  (docs/reduced-model.md). :mod:`.rom_law` reads the FE's free law at any pressure,
+  :mod:`.rom_effects` holds how each effect enters it (docs/effects.md), :mod:`.rom_ladder` the
+  law of a stiffer rubber from the FE's stiffening ladder.
 - :mod:`.protocol` -- :class:`Protocol`: the pressure sequence and history of a test.
 
     >>> from pnmold.physics import Protocol, ReducedModel                  # doctest: +SKIP

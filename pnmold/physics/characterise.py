@@ -1,10 +1,10 @@
 """What the FE says about a design, once: the free-bending law and the bending compliance.
 
-FE solves through the one door (:func:`pnmold.quickfe.run_fe`: the actuator alone, no molds,
+FE solves through the one door (:func:`pnmold.design_fe.run_fe`: the actuator alone, no molds,
 gate or pictures), on one half-model mesh:
 
 1. **free** -- no gravity, 0 kPa up to full bend (360 degrees) or ``max_pressure_kpa``: the
-   curves of CONTRACTS.md §3 (pressure, tip, bend angle, cavity volume, largest stretch) and
+   curves of docs/json-schemas.md (pressure, tip, bend angle, cavity volume, largest stretch) and
    the shape of the bottom face's line (y = 0, z = 0) at every step: the rod's free law,
    edge by edge (per chamber: :attr:`Characterisation.chamber_rotation_deg`).
 2. **probe** -- the same pressures with gravity scaled to ``PROBE_G`` along -z (chambers
@@ -104,7 +104,7 @@ def cache_dir() -> Path:
 
 def cache_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path:
     # the last part is the FE's version: v2 since the volume-controlled FE with the series
-    # paper sheet (issue 17); a change of the FE's answers bumps it so no older curve is read
+    # paper sheet; a change of the FE's answers bumps it so no older curve is read
     key = (f"{design.name}-{digest(design)}-m{size.wall_mm:g}x{size.max_mm:g}x{size.band_mm:g}"
            f"{'h' if size.half else 'f'}-p{max_pressure_kpa:g}-g{PROBE_G:g}-v2")
     return cache_dir() / f"{key}.json"
@@ -185,7 +185,7 @@ def blocked_force_probe(design: Design, *, size: MeshSize | None = None,
 
 def _blocked_tip(design: Design, pressure_kpa: float, size: MeshSize) -> dict[str, float]:
     """The FE's blocked tip (a rigid frictionless plane at its rest height, no gravity) at one pressure."""
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     t0 = time.perf_counter()
     run = run_fe(design, orientation=NO_GRAVITY, kind="force", pressures_kpa=[pressure_kpa], size=size)
@@ -253,7 +253,7 @@ def _run_variants(design: Design, size: MeshSize, keys: Sequence[str], say: Call
     The effects change the material or the layer, not the geometry: one mesh serves them all. A
     ``design:<field>=<value>`` key solves the design with that dimension moved up by the value instead,
     on a mesh of its own (:func:`uncertainty_runs`)."""
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     out, first = {}, None
     for key in keys:
@@ -283,7 +283,7 @@ def _with_variants(result: Characterisation, runs: dict[str, dict]) -> Character
 def _run_fe(design: Design, size: MeshSize, max_pressure_kpa: float,
             say: Callable[[str], None]) -> Characterisation:
     """The free run and the gravity probe on its mesh; the rod's shape and compliance from them."""
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     t0 = time.perf_counter()
     say(f"{design.name}: free bending (FE, no gravity)")

@@ -1,6 +1,6 @@
 """What the reduced model is asked to reproduce: a pressure sequence and its history.
 
-A :class:`Protocol` is the test a recording came from (CONTRACTS.md §4): the kind of
+A :class:`Protocol` is the test a recording came from (docs/recording-format.md): the kind of
 measurement, the pressures in time order, the orientation, and where known the time,
 cycle and phase of each row. History effects (``mullins``, ``viscoelasticity``) read the
 order, the cycles and the time; without ``time_s`` the time is the pressure travelled
@@ -25,7 +25,7 @@ import numpy as np
 
 from pnmold.conventions import NO_GRAVITY, ORIENTATIONS, QUASI_STATIC_KINDS
 from pnmold.errors import DesignError
-from pnmold.measurement import Measurement
+from pnmold.recording.measurement import Measurement
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,7 +39,7 @@ class Protocol:
     cycle: np.ndarray | None = None
     phase: np.ndarray | None = None
     rate_kpa_per_s: float | None = None
-    measurement: Measurement = Measurement()  # how the recording reads the model (pnmold.measurement)
+    measurement: Measurement = Measurement()  # how the recording reads the model (pnmold.recording.measurement)
     volume_ml: np.ndarray | None = None  # the recorded volumes of a test read by its volume (read_by_volume)
 
     def __post_init__(self) -> None:

@@ -1,4 +1,4 @@
-"""What a recording reads of the model's state, given how it was measured (:mod:`pnmold.measurement`).
+"""What a recording reads of the model's state, given how it was measured (:mod:`pnmold.recording.measurement`).
 
 - **Bend angle over another length.** A lab that computes the angle as curvature x its own
   bending length L_b reads, on a constant-curvature bend, the model's angle x L_b / L_free
@@ -30,7 +30,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from pnmold.measurement import Measurement
+from pnmold.recording.measurement import Measurement
 
 #: standard atmosphere (ISO 2533) and the reference conditions of standard mL (0 degC, 101.325 kPa)
 P_ATM_KPA = 101.325

@@ -5,7 +5,7 @@ bend with one effect on at a reference value. For each of its steps the *equival
 pressure* q is where the nominal free law reaches the same bend angle (or the same cavity
 volume): the variant at pressure p looks like the nominal at q. The reduced model keeps two
 factors, one for the shape (bend angle) and one for the volume, so that an effect that
-moves the bend and the volume differently (a stretching layer, DIAGNOSE.md's "fingerprint")
+moves the bend and the volume differently (a stretching layer, the "fingerprint" of docs/diagnosis.md)
 leaves the FE's own signature; and a stretch of the free part (a compliant layer lengthens
 the actuator): the ratio of the tip's distance from the clamp's end to the nominal's at the
 bend's q, which the rod applies to every free edge (the bend's shape kept, the tip placed):
@@ -16,7 +16,7 @@ bend's q, which the rod applies to every free edge (the bend's shape kept, the t
   p_m reaches the q solving ``p_m = q (1 + s (p/q - 1))``.
 
 ``s`` is the effect's intensity (the layer's lost stiffness share, the added Yeoh slope),
-worked out by the effect's term in :mod:`pnmold.physics.rom`. With runs at several values the
+worked out by the effect's term in :mod:`pnmold.physics.rom_effects`. With runs at several values the
 factor is piecewise linear in ``s`` through them (and 1 at ``s = 0``), the last piece
 extended beyond; linear between is an assumption, checked against FE runs at other values
 by ``tests/test_rom.py``.

@@ -1,6 +1,6 @@
 """The planar rod of the reduced model: the bottom face as a chain of hinged edges.
 
-The bottom face's line at y = 0 (the paper side, CONTRACTS.md §2) is a polyline of
+The bottom face's line at y = 0 (the paper side, docs/frame-and-units.md) is a polyline of
 ``K`` edges from the clamped end (node 0 at x = 0) to the tip (node K at x = L). Edge
 ``e`` makes the angle ``psi_e`` with +x, positive as it turns toward -z (so its
 direction is ``(cos psi, -sin psi)`` in x-z); its length is ``l_e``. The hinge at node

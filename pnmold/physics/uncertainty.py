@@ -3,7 +3,7 @@
 A design read off another lab's paper knows some dimensions only roughly: Table 1 gives a
 segment's outer sizes, and the roof, the ribs and where the constraint sits are inferred from
 them. Such a design's misfit to the lab's recording is model-form error, not missing physics
-(DIAGNOSE.md; issue 18: "geometry known to a millimetre ... treated as if it were signal").
+(docs/diagnosis.md: geometry known only to a millimetre must not be treated as if it were signal).
 The user states each uncertain dimension's standard uncertainty (``pnmold diagnose --uncertain
 chambers.outer_wall_mm=1``); the FE solves the free bend of the design with that dimension moved
 up by it (:func:`pnmold.physics.characterise.uncertainty_runs`, cached), and

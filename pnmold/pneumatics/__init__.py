@@ -3,7 +3,7 @@ into the chambers, coupled to the bending mode (``pnmold simulate --dynamic`` an
 diagnosis of ``step`` recordings).
 
 gas + flow (restrictions) -> network (volumes and edges) -> rates + trbdf2 (compiled) ->
-model (StepModel) -> dynamics (StepResponse) -> study (``simulate --dynamic``'s files).
+model (StepModel) -> dynamics (StepResponse); :mod:`pnmold.simulate.dynamic` writes ``simulate --dynamic``'s files.
 """
 
 from pnmold.pneumatics.dynamics import StepResponse, simulate_network, simulate_step
@@ -14,12 +14,11 @@ from pnmold.pneumatics.mechanics import BendingDynamics
 from pnmold.pneumatics.model import DIAGNOSIS, SIMULATION, StepModel
 from pnmold.pneumatics.network import ActuatorLine, Network, Rig, bench_network
 from pnmold.pneumatics.protocol import StepProtocol
-from pnmold.pneumatics.study import rig_for, run_step_study
 from pnmold.pneumatics.trbdf2 import Tolerances
 
 __all__ = [
     "DIAGNOSIS", "SIMULATION", "ActuatorLine", "BendingDynamics", "ChamberLaw", "CurveLaw", "Duct", "Network",
     "Orifice", "Rig", "StepModel", "StepProtocol", "StepResponse", "Tolerances", "bench_network",
-    "chamber_law_for", "chamber_law_from_curve", "dead_volume_pv_offset_ml", "rig_for", "run_step_study",
+    "chamber_law_for", "chamber_law_from_curve", "dead_volume_pv_offset_ml",
     "simulate_network", "simulate_step", "with_effects",
 ]

@@ -61,7 +61,7 @@ class StepResponse:
         return self.series[name]
 
     def recording_columns(self) -> dict[str, np.ndarray]:
-        """The ``step`` recording's columns (CONTRACTS.md §4) plus two extras (kept, ignored by readers)."""
+        """The ``step`` recording's columns (docs/recording-format.md) plus two extras (kept, ignored by readers)."""
         keys = ("time_s", "supply_kpa", "pressure_kpa", "flow_slpm", "bend_angle_deg", "tip_x_mm", "tip_z_mm",
                 "pressure_far_kpa", "volume_ml")
         return {k: self.series[k] for k in keys}

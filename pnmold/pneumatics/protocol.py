@@ -34,6 +34,7 @@ from pnmold.pneumatics.network import (
     VALVE_VOLUME_ML,
     Rig,
 )
+from pnmold.recording.metadata import metadata_number
 
 SUPPLY, VENT, CLOSED = 0, 1, -1  # valve phases of the compiled model
 
@@ -135,19 +136,9 @@ class StepProtocol:
 
 def _bench(rec) -> dict:
     """The bench fields the recording's metadata gives (RecordingError names a bad one)."""
-    meta = rec.metadata
 
     def number(key: str, low: float = 0.0, high: float = math.inf, closed: bool = False) -> float | None:
-        if key not in meta:
-            return None
-        try:
-            v = float(meta[key])
-        except ValueError:
-            v = math.nan
-        if not (math.isfinite(v) and (low <= v if closed else low < v) and v < high):
-            raise RecordingError(rec.path, 1, f"metadata {key} must be a number in {'[' if closed else '('}"
-                                 f"{low:g}, {high:g}), got {meta[key]!r}")
-        return v
+        return metadata_number(rec.metadata, key, rec.path, low=low, high=high, closed=closed)
 
     b = number("valve_critical_ratio", 0.0, 0.999, closed=True)
     b = VALVE_CRITICAL_RATIO if b is None else b

@@ -267,7 +267,7 @@ def _run_options(path: Path, run: dict) -> RunOptions:
     if "wall_mm" in sizes and "max_mm" in sizes and sizes["max_mm"] < sizes["wall_mm"]:
         raise SweepError(path, "run.max_mm", f"{sizes['max_mm']} mm is finer than run.wall_mm = {sizes['wall_mm']} mm")
     if "max_pressure_kpa" in sizes:
-        from pnmold.quickfe import QUICK_MAX_PRESSURE_KPA
+        from pnmold.design_fe import QUICK_MAX_PRESSURE_KPA
 
         if sizes["max_pressure_kpa"] > QUICK_MAX_PRESSURE_KPA:
             raise SweepError(path, "run.max_pressure_kpa", f"{sizes['max_pressure_kpa']} kPa is above the build's "

@@ -8,16 +8,15 @@ through them (:mod:`pnmold.diagnose.registration`) and calibrates what is unknow
 offset and rotation) with the modulus, never blaming them on an effect.
 
 Defaults are pnmold's own frame and the supplement's P-V test (water from a syringe pump).
-A leaf module: it imports nothing of pnmold but the errors.
+Read by the one metadata parser, :mod:`pnmold.recording.metadata`.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from pnmold.errors import RecordingError
+from pnmold.recording.metadata import metadata_choice, metadata_number
 
 #: where a recorded tip is measured from
 TIP_ORIGINS = ("clamp", "rest", "camera")
@@ -70,26 +69,11 @@ class Measurement:
 
 def measurement_of(metadata: Mapping[str, str], path: str) -> Measurement:
     """The :class:`Measurement` of a recording's metadata; RecordingError names the key."""
-
-    def choice(key: str, options: tuple[str, ...], default: str) -> str:
-        value = metadata.get(key, default).lower()
-        if value not in options:
-            raise RecordingError(path, 1, f"metadata {key} must be one of {', '.join(options)}, got {value!r}")
-        return value
-
-    def number(key: str, positive: bool) -> float | None:
-        if key not in metadata:
-            return None
-        try:
-            value = float(metadata[key])
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and (value > 0 if positive else value >= 0)):
-            raise RecordingError(path, 1, f"metadata {key} must be a number {'>' if positive else '>='} 0, "
-                                 f"got {metadata[key]!r}")
-        return value
-
-    return Measurement(choice("tip_origin", TIP_ORIGINS, "clamp"), number("bending_length_mm", True),
-                       choice("rig", RIGS, "volume"), choice("medium", MEDIA, "water"),
-                       number("air_column_ml", False) or 0.0, number("pressure_accuracy_kpa", False) or 0.0,
-                       number("volume_accuracy_ml", False) or 0.0)
+    meta = metadata
+    return Measurement(metadata_choice(meta, "tip_origin", TIP_ORIGINS, "clamp", path),
+                       metadata_number(meta, "bending_length_mm", path),
+                       metadata_choice(meta, "rig", RIGS, "volume", path),
+                       metadata_choice(meta, "medium", MEDIA, "water", path),
+                       metadata_number(meta, "air_column_ml", path, closed=True) or 0.0,
+                       metadata_number(meta, "pressure_accuracy_kpa", path, closed=True) or 0.0,
+                       metadata_number(meta, "volume_accuracy_ml", path, closed=True) or 0.0)

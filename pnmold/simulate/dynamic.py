@@ -1,6 +1,6 @@
 """``pnmold simulate DESIGN --dynamic`` as library functions: the bench from the options
 (:func:`rig_for`), and the study that runs the step model and writes the JSON (schema
-``pnmold.simulation/1``, ``model: dynamic``), the ``step`` recording (CONTRACTS.md §4) and the
+``pnmold.simulation/1``, ``model: dynamic``), the ``step`` recording (docs/recording-format.md) and the
 figure (:func:`run_step_study`). Bad values raise :class:`~pnmold.errors.UsageError` naming
 the command-line option.
 """
@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from pnmold.conventions import default_out_dir
 from pnmold.effects import check_effects
 from pnmold.errors import DesignError, UsageError
 from pnmold.pneumatics.dynamics import OUTPUT_STEP_S, StepResponse, simulate_step
@@ -101,6 +102,15 @@ class StepStudy:
     document: dict[str, Any]
     written: list[Path]
     summary: list[str]
+
+    def __repr__(self) -> str:
+        return f"<StepStudy {self.document['design']['name']}: {self.summary[0]}>"
+
+    def _repr_html_(self) -> str:
+        from pnmold.frames import summary_html
+
+        rows = {"design": self.document["design"]["name"], "files": ", ".join(str(p) for p in self.written)}
+        return summary_html("pnmold simulate --dynamic", rows, self.summary)
 
 
 def run_step_study(design, rig: Rig, *, duration_s: float = 0.5, gas_law: str = GAS_LAW,
@@ -198,9 +208,7 @@ def _plot_path(design, plot_path, json_path, recording_path) -> Path:
     for given in (json_path, recording_path):
         if given:
             return Path(given).with_suffix(".png")
-    from pnmold.pipeline import default_out_dir
-
-    return Path(default_out_dir(design)) / "step_response.png"
+    return default_out_dir(design.name) / "step_response.png"
 
 
 def _title(design, rig: Rig, response: StepResponse) -> str:

@@ -15,15 +15,16 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from pnmold import render
+from pnmold.conventions import MOLDS
 from pnmold.errors import PnmoldError, UsageError
 from pnmold.fsutil import write_text
+from pnmold.report import render
 
 log = logging.getLogger(__name__)
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 MODEL_VIEWER_VERSION = "4.4.0"  # pnmold/data/model-viewer.min.js, see model-viewer.NOTICE
-VIEWER_PARTS = ("actuator", "mold_interior", "mold_exterior", "mold_bottom")
+VIEWER_PARTS = ("actuator", *MOLDS)
 
 CSS = """body{font-family:system-ui,sans-serif;margin:0;color:#222;background:#fafafa;line-height:1.4}
 header{background:#263238;color:#fff;padding:1em 2em}header h1{margin:0 0 .2em}header p{margin:.2em 0}
@@ -248,8 +249,8 @@ def _checklist(folder: Path, report: dict[str, Any]) -> str:
     link = ("<p>The printable checklist: <a href='checklist.md'>checklist.md</a> (beside this page); "
             "the same, rendered:</p>")
     try:
-        from pnmold.checklist import checklist_sections, render_html
         from pnmold.design import load_design
+        from pnmold.report.checklist import checklist_sections, render_html
 
         design = load_design(folder / "design.toml")
         doc = render_html(design, checklist_sections(design, report))
@@ -260,7 +261,7 @@ def _checklist(folder: Path, report: dict[str, Any]) -> str:
 
 
 def picture_jobs(folder: str | Path) -> dict[str, tuple]:
-    """The report's pictures of ``folder`` as :mod:`pnmold.render` jobs: each part whose STL is
+    """The report's pictures of ``folder`` as :mod:`pnmold.report.render` jobs: each part whose STL is
     there, and the strain on the bent actuator once ``fem_field.npz`` is."""
     folder = Path(folder)
     jobs: dict[str, tuple] = {name: ("part", folder / f"{name}.stl", name)
@@ -274,7 +275,7 @@ def report_page(folder: str | Path, report: dict[str, Any] | None = None,
                 renderer: render.Renderer | None = None) -> str:
     """The HTML of ``folder``'s report page (``report`` defaults to its report.json).
 
-    ``renderer``: a :class:`~pnmold.render.Renderer` already drawing some of the pictures
+    ``renderer``: a :class:`~pnmold.report.render.Renderer` already drawing some of the pictures
     (a build starts one early); the rest are sent to it. Default: a new one."""
     folder = Path(folder)
     if report is None:

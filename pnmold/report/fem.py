@@ -1,6 +1,6 @@
-"""What a build writes of its quick FE: the ``fem`` section of ``report.json``, the blocked
-force, ``fem_field.npz``, ``bending.png`` and the ParaView files ``fem/bending.pvd``,
-``fem/step_NNN.vtu``."""
+"""What a build writes of its quick FE (:func:`write_fe_section`): the ``fem`` section of
+``report.json``, the blocked force, ``fem_field.npz``, ``bending.png`` and the ParaView files
+``fem/bending.pvd``, ``fem/step_NNN.vtu``."""
 
 from __future__ import annotations
 
@@ -12,16 +12,33 @@ from typing import Any
 
 import numpy as np
 
+from pnmold.design_fe import FeRun
 from pnmold.errors import SolveError
 from pnmold.fem import blocked_force_slope
 from pnmold.fem.linsolve import choose_linear_solver
 from pnmold.fsutil import write_bytes
-from pnmold.quickfe import FeRun, material_of, membrane_of, regions_of
 from pnmold.tetmesh import TetMesh
 
 
+def write_fe_section(run: FeRun, folder: Path) -> dict[str, Any]:
+    """Write the quick FE's files of ``run`` into the build ``folder``; the report's ``fem`` section."""
+    bending_figure(run, folder / "bending.png")
+    write_field(run, folder / "fem_field.npz")
+    section = fem_report(run)
+    section["paraview"] = write_paraview(run, folder)
+    section["blocked_force"] = blocked_force_report(run)
+    section["timings_s"] = {**run.timings_s, "blocked_force": section["blocked_force"].get("seconds")}
+    return section
+
+
+def failed_fe_section(err: Exception) -> dict[str, Any]:
+    """The ``fem`` section of a quick FE where nothing converged: no curve, the reason."""
+    return {"full_bend_pressure_kpa": None, "reason": f"failed: {err}", "max_pressure_kpa": None,
+            "stop": "failed", "steps": []}
+
+
 def fem_report(run: FeRun) -> dict[str, Any]:
-    """The ``fem`` section of ``report.json`` (CONTRACTS.md §3)."""
+    """The ``fem`` section of ``report.json`` (docs/json-schemas.md)."""
     sol = run.solution
     keys = ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml", "max_principal_stretch")
     steps = []
@@ -53,8 +70,8 @@ def blocked_force_report(run: FeRun, n_points: int = 9) -> dict[str, Any]:
     gravity, from 0 kPa to the free curve's last pressure."""
     t0 = time.perf_counter()
     try:
-        slope = blocked_force_slope(run.mesh, material_of(run.design), membrane_of(run.design), gravity=run.gravity_g,
-                                    regions=regions_of(run.design))
+        slope = blocked_force_slope(run.mesh, run.problem.material, run.problem.membrane, gravity=run.gravity_g,
+                                    regions=run.problem.regions)
     except SolveError as err:
         return {"reason": f"blocked-force solve failed: {err}", "steps": []}
     top = run.solution.max_pressure_kpa

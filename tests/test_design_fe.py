@@ -10,8 +10,8 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.design import load_design
+from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, run_fe
 from pnmold.pipeline import build
-from pnmold.quickfe import BUILD_MESH, BUILD_OPTIONS, run_fe
 from pnmold.recording import read_recording
 from pnmold.tetmesh import MeshSize
 
@@ -162,10 +162,10 @@ def test_a_build_whose_fe_fails_keeps_its_parts_and_report(tmp_path, monkeypatch
     """Issue 17: a failed FE never costs the molds. Newton is allowed one iteration and no
     cut, so the very first (gravity) increment fails; the build still writes every part, the
     gate's findings, report.json with the reason and report.html, and exits 3."""
-    import pnmold.quickfe as quickfe
+    import pnmold.design_fe as design_fe
     from pnmold.fem import NewtonOptions, SolveOptions
 
-    monkeypatch.setattr(quickfe, "BUILD_OPTIONS",
+    monkeypatch.setattr(design_fe, "BUILD_OPTIONS",
                         SolveOptions(newton=NewtonOptions(max_iterations=1, max_cuts=0)))
     out = tmp_path / "fpn"
     assert main(["build", "--out", str(out), "--no-slicer", "--quiet"]) == 3
@@ -187,8 +187,8 @@ def test_a_rubber_strain_limiting_layer_is_a_second_material_in_the_fe(exported)
     extension, so at the same pressure it bends markedly less (the composite-beam test in
     test_fem.py checks the two-rubber physics exactly). The mesh carries the layer as a
     region of its own."""
+    from pnmold.design_fe import regions_of
     from pnmold.materials.library import as_design_overrides, get_material
-    from pnmold.quickfe import regions_of
     from pnmold.tetmesh import BOTTOM_LAYER
 
     ecoflex = [*as_design_overrides(get_material("Ecoflex 00-30")), "paper.present=false"]

@@ -1,12 +1,14 @@
-"""The one door from a design to an FE curve: :func:`run_fe`.
+"""The design's FE: the one door from a design to an FE problem and its solved curve.
 
-design (+ catalogued effects the FE carries) -> the actuator's STEP (the build's own file, or
-the actuator alone exported for the purpose: no molds, no gate, no pictures) ->
-:func:`pnmold.mesh.mesh_actuator` (gmsh) -> :func:`pnmold.fem.solve_bending` or
-:func:`pnmold.fem.solve_blocked_force` (scikit-fem) -> :class:`FeRun`. The build, ``pnmold
-simulate --model fe``, the reduced model's characterisation and the pneumatic chamber law
-all come through here. Gravity follows the test orientation (CONTRACTS.md §4); the build's
-quick solve assumes the actuator lies chambers up (gravity along -z), as on a bench.
+:func:`fe_problem` makes the problem of a design: the design as solved (catalogued effects the FE
+carries put into its rubber and paper), the rubber(s), the paper membrane, gravity of the test
+orientation (docs/frame-and-units.md) and the mesh size (the whole body where gravity leaves the
+bending plane). :func:`run_fe` solves it: the actuator's STEP (the build's own file, or the actuator
+alone exported for the purpose: no molds, no gate, no pictures) -> :func:`pnmold.mesh.mesh_actuator`
+(gmsh) -> :func:`pnmold.fem.solve_bending` or :func:`pnmold.fem.solve_blocked_force` (scikit-fem) ->
+:class:`FeRun`. The build, ``pnmold simulate --model fe``, the reduced model's characterisation, the
+pneumatic chamber law and ``pnmold export`` all come through here. The build's quick solve assumes
+the actuator lies chambers up (gravity along -z), as on a bench.
 """
 
 from __future__ import annotations
@@ -96,17 +98,52 @@ def design_for_fe(design: Design, effects: Mapping[str, float]) -> tuple[Design,
 
 
 @dataclass(frozen=True, eq=False)
-class FeRun:
-    """A solved curve with the mesh it was solved on (``design``: as solved, effects in it)."""
+class FeProblem:
+    """What the FE solves for a design: the design as solved (effects in it), its rubber (and a second
+    rubber's element sets), the paper, gravity in g along the actuator frame (None: none) and the mesh size."""
 
     design: Design
+    material: Yeoh
+    membrane: Membrane | None
+    regions: dict[str, Yeoh]
+    gravity_g: tuple[float, float, float] | None
+    size: MeshSize
+
+
+def fe_problem(design: Design, *, orientation: str = "chambers_up", effects: Mapping[str, float] | None = None,
+               size: MeshSize | None = None) -> FeProblem:
+    """The FE problem of ``design`` tested in ``orientation`` (or ``none``) with the catalogued ``effects``
+    the FE carries; ``size`` (default :class:`MeshSize`) turns into a whole model where gravity leaves the
+    bending plane (a half model cannot carry it)."""
+    solved, g = design_for_fe(design, effects or {})
+    direction = gravity_direction(orientation, solved.material.density_g_per_ml)
+    gravity = None if direction is None or g == 0 else tuple(g * v for v in direction)
+    size = size or MeshSize()
+    if gravity is not None and gravity[1] != 0 and size.half:
+        size = dataclasses.replace(size, half=False)  # out of the bending plane: the whole body
+    return FeProblem(solved, material_of(solved), membrane_of(solved), regions_of(solved), gravity, size)
+
+
+@dataclass(frozen=True, eq=False)
+class FeRun:
+    """A solved curve with its problem and the mesh it was solved on (``size``: that mesh's)."""
+
+    problem: FeProblem
     mesh: TetMesh
     quality: object  # pnmold.mesh.MeshQuality
     solution: Solution
     size: MeshSize
     orientation: str
-    gravity_g: tuple[float, float, float] | None
     timings_s: dict[str, float]
+
+    @property
+    def design(self) -> Design:
+        """The design as solved (effects in it)."""
+        return self.problem.design
+
+    @property
+    def gravity_g(self) -> tuple[float, float, float] | None:
+        return self.problem.gravity_g
 
 
 def run_fe(design: Design, *, orientation: str = "chambers_up", effects: Mapping[str, float] | None = None,
@@ -118,7 +155,7 @@ def run_fe(design: Design, *, orientation: str = "chambers_up", effects: Mapping
 
     Parameters
     ----------
-    orientation : where gravity points (CONTRACTS.md §4), or ``none`` for no gravity.
+    orientation : where gravity points (docs/recording-format.md), or ``none`` for no gravity.
     effects : catalogued effects the FE carries (``gravity`` = its factor, default 1;
         ``strain_stiffening``; ``layer_compliance``), by name (and ``NAME.PARAM``).
     pressures_kpa, max_pressure_kpa : the curve's pressures, or up to full bend or the maximum
@@ -133,17 +170,13 @@ def run_fe(design: Design, *, orientation: str = "chambers_up", effects: Mapping
     """
     if kind not in FE_KINDS:
         raise DesignError("kind", f"the FE solves {', '.join(FE_KINDS)}, got {kind!r}")
-    solved, g = design_for_fe(design, effects or {})
-    direction = gravity_direction(orientation, solved.material.density_g_per_ml)
-    gravity = None if direction is None or g == 0 else tuple(g * v for v in direction)
-    size = size or MeshSize()
-    if gravity is not None and gravity[1] != 0 and size.half:
-        size = dataclasses.replace(size, half=False)  # out of the bending plane: the whole body
+    problem = fe_problem(design, orientation=orientation, effects=effects, size=size)
     t0 = time.perf_counter()
     if mesh_of is not None:
         mesh, quality, size = mesh_of.mesh, mesh_of.quality, mesh_of.size
     else:
-        mesh, quality = _mesh(solved, size, step_path)
+        size = problem.size
+        mesh, quality = _mesh(problem.design, size, step_path)
     t1 = time.perf_counter()
     if pressures_kpa is not None:
         loads = {"pressures_kpa": list(pressures_kpa)}
@@ -151,16 +184,16 @@ def run_fe(design: Design, *, orientation: str = "chambers_up", effects: Mapping
         loads = {"max_pressure_kpa": QUICK_MAX_PRESSURE_KPA if max_pressure_kpa is None else max_pressure_kpa}
     solve = solve_blocked_force if kind == "force" else solve_bending
     try:
-        solution = solve(mesh, material_of(solved), membrane_of(solved), gravity=gravity, options=options,
-                         regions=regions_of(solved), **loads)
+        solution = solve(mesh, problem.material, problem.membrane, gravity=problem.gravity_g, options=options,
+                         regions=problem.regions, **loads)
     except SolveError as err:
         if not keep_partial or err.partial is None:
             raise
         log.warning("FE stopped: %s", err)
         solution = err.partial
     t2 = time.perf_counter()
-    return FeRun(solved, mesh, quality, solution, size, orientation, gravity,
-                 {"mesh": round(t1 - t0, 3), "solve": round(t2 - t1, 3)})
+    timings = {"mesh": round(t1 - t0, 3), "solve": round(t2 - t1, 3)}
+    return FeRun(problem, mesh, quality, solution, size, orientation, timings)
 
 
 def _mesh(design: Design, size: MeshSize, step_path: str | Path | None):

@@ -4,7 +4,7 @@ and the GLB models of the interactive view.
 Parts are drawn with PyVista (VTK) off screen through EGL, which Mesa's software renderer
 (``libegl-mesa0``, installed by ``scripts/install-system-deps.sh``) provides without a
 display or a GPU. :class:`Renderer` draws them in a child process (``python -m
-pnmold.render``), because VTK ends its process when it finds no OpenGL at all: a build then
+pnmold.report.render``), because VTK ends its process when it finds no OpenGL at all: a build then
 loses its pictures, with the reason, not its life. Curves are matplotlib (Agg). Everything
 returns PNG or GLB bytes.
 """
@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pnmold.conventions import CAST_PARTS, MOLDS, USES
 from pnmold.fsutil import write_bytes
-from pnmold.layout import CAST_PARTS, MOLDS, USES
 
 #: the parts in the order a person reads them
 PARTS = CAST_PARTS + MOLDS
@@ -184,7 +184,7 @@ RENDER_TIMEOUT_S = 600
 
 
 class Renderer:
-    """A child process (``python -m pnmold.render``) that draws jobs as they are sent, one JSON
+    """A child process (``python -m pnmold.report.render``) that draws jobs as they are sent, one JSON
     line of ``key -> ("part", stl_path, name) | ("strain", npz_path)`` at a time.
 
     A build starts it as soon as its parts are exported, so the part pictures are drawn while
@@ -198,12 +198,12 @@ class Renderer:
         self._t0 = time.monotonic()
         self.sent: list[str] = []
         self._stderr = (self._folder / "stderr.txt").open("w+")
-        home = str(Path(__file__).resolve().parents[1])  # this pnmold, installed or not
+        home = str(Path(__file__).resolve().parents[2])  # this pnmold, installed or not
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [home, os.environ.get("PYTHONPATH")]))}
         self._start_error = None
         try:
             self._proc: subprocess.Popen | None = subprocess.Popen(
-                [sys.executable, "-m", "pnmold.render", str(self._folder)], stdin=subprocess.PIPE,
+                [sys.executable, "-m", "pnmold.report.render", str(self._folder)], stdin=subprocess.PIPE,
                 stdout=subprocess.DEVNULL, stderr=self._stderr, text=True, env=env)
         except OSError as err:
             self._proc, self._start_error = None, f"the renderer could not start: {err}"

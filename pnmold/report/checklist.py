@@ -15,9 +15,9 @@ import html
 from dataclasses import dataclass
 from typing import Any
 
+from pnmold.checks.slicer import DEFAULT_PROFILE, read_profile
+from pnmold.conventions import USES
 from pnmold.design import Design
-from pnmold.layout import USES
-from pnmold.slicer import DEFAULT_PROFILE, read_profile
 
 #: assumed: keep the test's largest stretch below half the stretch at break
 STRETCH_SAFETY_FACTOR = 2.0

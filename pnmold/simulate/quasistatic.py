@@ -1,6 +1,6 @@
 """``pnmold simulate``: the quasi-static response of a design, as JSON and as a recording.
 
-Two models give the same rows (CONTRACTS.md §1, §3):
+Two models give the same rows (docs/cli.md, docs/json-schemas.md):
 
 - ``--model fe`` builds the design's CAD, meshes the exported STEP and solves the pressure
   curve (free bending, or blocked force against a plane at the tip). The catalogue's
@@ -78,10 +78,58 @@ class Noise:
 
 @dataclass(frozen=True)
 class Simulation:
-    """A simulation's document (``pnmold.simulation/1``) and the files written."""
+    """A simulation's document (``pnmold.simulation/1``) and the files written. In a notebook it shows
+    a short summary; :meth:`figure` draws its curve, :meth:`steps_frame` gives its rows as a DataFrame."""
 
     doc: dict[str, Any]
     written: tuple[Path, ...] = ()
+
+    def summary(self) -> dict[str, str]:
+        """Label -> value: the design, model, effects, rows, the full bend and the last row."""
+        d, steps = self.doc, self.doc["steps"]
+        effects = ", ".join(f"{k}={v:g}" for k, v in d["effects"].items()) or "none"
+        fb = d.get("full_bend_pressure_kpa")
+        rows = {"design": f"{d['design']['name']} ({d['design']['digest']})",
+                "model": f"{d['model']}, {d['kind']}, {d['orientation']}", "effects": effects,
+                "rows": (f"{len(steps)}, {min(s['pressure_kpa'] for s in steps):g} to "
+                         f"{max(s['pressure_kpa'] for s in steps):g} kPa") if steps else "0",
+                "full bend": f"{fb:.1f} kPa" if fb is not None else f"- ({d.get('reason')})"}
+        if steps:
+            rows["last row"] = _row_text(d["kind"], steps[-1])
+        if self.written:
+            rows["files"] = ", ".join(str(p) for p in self.written)
+        return rows
+
+    def __repr__(self) -> str:
+        s = self.summary()
+        return f"<Simulation {s['design']}, {s['model']}: {s['rows']}; full bend {s['full bend']}>"
+
+    def _repr_html_(self) -> str:
+        from pnmold.frames import summary_html
+
+        return summary_html("pnmold simulate", self.summary())
+
+    def figure(self, *, ax=None):
+        """The curve as a matplotlib Figure (:func:`pnmold.plots.plot_simulation`)."""
+        from pnmold.plots import plot_simulation
+
+        return plot_simulation(self.doc, ax=ax)
+
+    def steps_frame(self):
+        """The rows (``doc["steps"]``) as a pandas DataFrame (UsageError without pandas: ``pnmold[pandas]``)."""
+        from pnmold.frames import dataframe
+
+        return dataframe(self.doc["steps"])
+
+
+def _row_text(kind: str, row: dict[str, Any]) -> str:
+    at = f"at {row['pressure_kpa']:g} kPa"
+    if kind == "force":
+        return f"{row['force_n']:.3g} N {at}"
+    if kind == "pv":
+        volume = row.get("volume_ml", row["cavity_volume_ml"])
+        return f"{volume:.3g} mL {at}"
+    return f"bend {row['bend_angle_deg']:.1f} deg, tip ({row['tip_x_mm']:.1f}, {row['tip_z_mm']:.1f}) mm {at}"
 
 
 def simulate(design: Design, request: SimulationRequest, *, json_path: str | Path | None = None,
@@ -169,7 +217,7 @@ def simulate_fe(design: Design, request: SimulationRequest, *, vtu_dir: str | Pa
     write every converged step there as VTU with a ``.pvd`` index (``bending.pvd``, or
     ``force.pvd`` for blocked force; :mod:`pnmold.export.vtu`), named in the document's
     ``paraview``."""
-    from pnmold.quickfe import run_fe
+    from pnmold.design_fe import run_fe
 
     run = run_fe(design, orientation=request.orientation, effects=dict(request.effects),
                  pressures_kpa=request.pressures_kpa, kind="force" if request.kind == "force" else "bending",
@@ -266,7 +314,7 @@ def _with_time(steps: list[dict[str, Any]], rate_kpa_per_s: float | None) -> lis
 
 
 def recording_columns(doc: dict[str, Any]) -> dict[str, np.ndarray]:
-    """The lab-format columns (CONTRACTS.md §4) of a simulation's steps."""
+    """The lab-format columns (docs/recording-format.md) of a simulation's steps."""
     steps = doc["steps"]
     col = {k: np.array([s[k] for s in steps], float) for k in steps[0] if not isinstance(steps[0][k], str | list)}
     out: dict[str, np.ndarray] = {}

@@ -1,4 +1,4 @@
-"""Units pnmold reads in lab files, converted once at reading to its own (CONTRACTS.md §2:
+"""Units pnmold reads in lab files, converted once at reading to its own (docs/frame-and-units.md:
 kPa gauge, mL): the factors, each with its definition. A leaf module."""
 
 from __future__ import annotations

@@ -1,4 +1,6 @@
-"""The build report (schema ``pnmold.build/1``, CONTRACTS.md §3) and its parts."""
+"""The build report ``report.json`` (schema ``pnmold.build/1``, docs/json-schemas.md) and its parts: what
+was built (parts measured on the exported files), the gate's findings, the pours; the FE's section comes
+from :mod:`pnmold.report.fem`."""
 
 from __future__ import annotations
 
@@ -6,8 +8,10 @@ import importlib.metadata
 from pathlib import Path
 from typing import Any
 
+from pnmold.checks import CheckReport
+from pnmold.checks.stlio import load_stl
 from pnmold.design import Design, digest
-from pnmold.stlio import load_stl
+from pnmold.version import __version__
 
 SCHEMA = "pnmold.build/1"
 _VERSIONED = ("cadquery", "trimesh", "manifold3d", "gmsh", "scikit-fem", "numpy", "scipy")
@@ -69,3 +73,31 @@ def pours(design: Design, parts: dict[str, dict[str, Any]]) -> list[dict[str, An
 def design_entry(design: Design) -> dict[str, str]:
     return {"name": design.name, "kind": design.kind, "digest": digest(design),
             "material": design.material.name}
+
+
+def new_report(design: Design, parts: dict[str, dict[str, Any]], timings_s: dict[str, float]) -> dict[str, Any]:
+    """A build's report before its checks and FE: the design, the library versions, the parts and
+    pours; ``timings_s`` is the build's own dict of stage times (filled in as the stages run)."""
+    return {
+        "schema": SCHEMA,
+        "pnmold_version": __version__,
+        "design": design_entry(design),
+        "versions": versions(),
+        "parts": parts,
+        "checks": [],
+        "fem": {"full_bend_pressure_kpa": None, "reason": "quick FE not run", "max_pressure_kpa": None, "steps": []},
+        "pours": pours(design, parts),
+        "timings_s": timings_s,
+    }
+
+
+def slicer_summary(checks: list[dict[str, Any]]) -> dict[str, Any]:
+    """PrusaSlicer's estimates per mold, from the slicer findings."""
+    return {c["id"].removeprefix("print.slicer."): (c["value"] if c["passed"] else {"status": c["status"],
+            "message": c["message"]}) for c in checks if c["id"].startswith("print.slicer.")}
+
+
+def record_checks(report: dict[str, Any], checks: CheckReport) -> dict[str, Any]:
+    """``report`` with the gate's findings and the slicer's estimates (a new dict)."""
+    found = checks.as_list()
+    return {**report, "checks": found, "slicer": slicer_summary(found)}

@@ -1,4 +1,4 @@
-"""Lab recordings in the CSV format of CONTRACTS.md §4, version 1: read and write.
+"""Lab recordings in the CSV format of docs/recording-format.md, version 1: read and write.
 
 A recording is UTF-8 CSV: optional ``# key: value`` metadata lines (``##`` lines are
 comments), one header row of column names that carry their units, then numbers (``phase``
@@ -25,14 +25,15 @@ import numpy as np
 from pnmold.conventions import ORIENTATIONS, QUASI_STATIC_KINDS, RECORDING_KINDS
 from pnmold.errors import RecordingError
 from pnmold.fsutil import write_text
-from pnmold.measurement import KEYS as MEASUREMENT_KEYS
-from pnmold.measurement import Measurement, measurement_of
-from pnmold.units import ABSOLUTE_UNITS, PRESSURE_UNITS, VOLUME_UNITS
+from pnmold.recording.measurement import KEYS as MEASUREMENT_KEYS
+from pnmold.recording.measurement import Measurement, measurement_of
+from pnmold.recording.metadata import conversion, metadata_number, rate_in_kpa, read_metadata
+from pnmold.recording.units import ABSOLUTE_UNITS, PRESSURE_UNITS, VOLUME_UNITS
 
 log = logging.getLogger(__name__)
 
 VERSION = "1"
-#: kind -> (required columns, optional columns) (CONTRACTS.md §4)
+#: kind -> (required columns, optional columns) (docs/recording-format.md)
 COLUMNS = {
     "bending": (("pressure_kpa", "tip_x_mm", "tip_z_mm"), ("bend_angle_deg", "cycle", "phase", "time_s")),
     "pv": (("volume_ml", "pressure_kpa"), ("cycle", "phase", "time_s")),
@@ -51,7 +52,7 @@ _CONVERTIBLE = {"kpa": PRESSURE_UNITS, "ml": VOLUME_UNITS}
 _CANONICAL = {c for req, opt in COLUMNS.values() for c in (*req, *opt)}
 _MICRO = str.maketrans({"\u00b5": "u", "\u03bc": "u"})  # micro sign and Greek mu: uL
 
-#: what each column holds (the actuator frame and units of CONTRACTS.md §2; pressures are gauge)
+#: what each column holds (the actuator frame and units of docs/frame-and-units.md; pressures are gauge)
 COLUMN_DOCS = {
     "pressure_kpa": "pressure at the actuator's inlet (step: the chamber at the inlet)",
     "tip_x_mm": "tip x: along the length from the clamped end (the tip: free end, bottom face, y = 0)",
@@ -127,10 +128,6 @@ class Recording:
         return self.columns[name]
 
 
-def _conversion(source: str, factor: float) -> str:
-    return f"from {source} (x {factor:.7g})"
-
-
 def _resolve_unit(name: str) -> tuple[str, float] | str | None:
     """A column name as pnmold reads it: (canonical name, factor to its unit), or why its unit
     is refused, or None for a column pnmold does not read (kept and ignored)."""
@@ -152,38 +149,6 @@ def _resolve_unit(name: str) -> tuple[str, float] | str | None:
     return f"{stem} must be in one of {', '.join(table)} (e.g. column {canonical}), not {unit}"
 
 
-def _metadata(lines: list[str], path: str) -> tuple[dict[str, str], int]:
-    meta, n = {}, 0
-    for n, line in enumerate(lines, 1):
-        if not line.startswith("#"):
-            return meta, n
-        body = line[1:].strip()
-        if not body or body.startswith("#"):  # blank, or a "##" comment
-            continue
-        if ":" not in body:
-            raise RecordingError(path, n, f"metadata must read '# key: value', got {line.strip()!r}")
-        key, value = (s.strip() for s in body.split(":", 1))
-        meta[key.lower()] = value.split()[0] if value else ""
-    return meta, n + 1
-
-
-def _rate_in_kpa(meta: dict[str, str], path: str) -> dict[str, str]:
-    """``rate_<pressure unit>_per_s`` as ``rate_kpa_per_s`` (added to ``meta``); the conversion."""
-    given = [k for k in meta if k != "rate_kpa_per_s" and k.startswith("rate_") and k.endswith("_per_s")
-             and k[5:-6] in PRESSURE_UNITS]
-    if not given:
-        return {}
-    if len(given) > 1 or "rate_kpa_per_s" in meta:
-        both = sorted({*given, "rate_kpa_per_s"} & set(meta))
-        raise RecordingError(path, 1, f"two ramp rates given ({', '.join(both)}); keep one")
-    key, factor = given[0], PRESSURE_UNITS[given[0][5:-6]]
-    try:
-        meta["rate_kpa_per_s"] = repr(float(meta[key]) * factor)
-    except ValueError:
-        raise RecordingError(path, 1, f"{key} must be a positive number, got {meta[key]!r}") from None
-    return {"rate_kpa_per_s": _conversion(key, factor)}
-
-
 def _check_metadata(meta: dict[str, str], path: str, columns: list[str]) -> str:
     version = meta.get("pnmold-recording", VERSION)
     if version != VERSION:
@@ -200,14 +165,7 @@ def _check_metadata(meta: dict[str, str], path: str, columns: list[str]) -> str:
     orientation = meta.get("orientation")
     if orientation is not None and orientation not in ORIENTATIONS:
         raise RecordingError(path, 1, f"unknown orientation {orientation!r}; one of {', '.join(ORIENTATIONS)}")
-    rate = meta.get("rate_kpa_per_s")
-    if rate is not None:
-        try:
-            ok = float(rate) > 0 and math.isfinite(float(rate))
-        except ValueError:
-            ok = False
-        if not ok:
-            raise RecordingError(path, 1, f"rate_kpa_per_s must be a positive number, got {rate!r}")
+    metadata_number(meta, "rate_kpa_per_s", path)
     return kind
 
 
@@ -252,12 +210,12 @@ def read_recording(path: str | Path) -> Recording:
         line = raw[:err.start].count(b"\n") + 1
         raise RecordingError(p, line, "not UTF-8 text") from err
     lines = text.splitlines()
-    meta, header_line = _metadata(lines, p)
+    meta, header_line = read_metadata(lines, p)
     if header_line > len(lines) or not lines[header_line - 1].strip():
         raise RecordingError(p, header_line, "no header row of column names")
     rows = list(csv.reader(io.StringIO("\n".join(lines[header_line - 1:]))))
     header, names, factors = _header(rows[0], p, header_line)
-    conversions = _rate_in_kpa(meta, p)
+    conversions = rate_in_kpa(meta, p)
     kind = _check_metadata(meta, p, [n for n in names if n])
     required, optional = COLUMNS[kind]
     missing = [c for c in required if c not in names]
@@ -286,7 +244,7 @@ def read_recording(path: str | Path) -> Recording:
     for i, name in used.items():
         if factors[i] != 1.0 or header[i] != name:
             columns[name] = columns[name] * factors[i]
-            conversions[name] = _conversion(rows[0][i].strip(), factors[i])
+            conversions[name] = conversion(rows[0][i].strip(), factors[i])
     if "cycle" in columns:
         columns["cycle"] = columns["cycle"].astype(int)
     if "time_s" in columns:
@@ -369,7 +327,7 @@ def recording_template(kind: str) -> str:
     def comment(text: str) -> list[str]:
         return textwrap.wrap(text, 96, initial_indent="## ", subsequent_indent="##     ")
 
-    out = comment(f"pnmold recording, kind {kind}: the CSV format of docs/recording-format.md. '##' lines are "
+    out = comment(f"pnmold recording, kind {kind}: the CSV format of `pnmold docs recording-format`. '##' lines are "
                   "comments, '# key: value' lines are metadata. After the header row: one row per sample, "
                   "comma-separated numbers, at least 2 rows.")
     for key, (kinds, what) in METADATA_KEYS.items():

@@ -1,0 +1,153 @@
+"""How the catalogued effects (docs/effects.md) enter the reduced model's free law.
+
+Strain stiffening raises the pressure a deformation needs by a factor ``r`` (``p = p_eff r(p_eff)``),
+read from the FE's own run with stiffer rubber or, without it, from the Yeoh slopes; a layer
+compliance makes the shape (and the volume) read the law at a raised pressure, by the share of the
+bottom's stretching stiffness the layer loses; self-contact freezes the free rotation's increments
+above the pressure where neighbouring fPN walls' bulges close the gap; gravity is the orientation's
+in-plane part. The FE's variant runs become :class:`pnmold.physics.response.Response` factors
+(:func:`variant_responses`). Pure functions of the design and the free law (:mod:`.rom_law`); the
+model that applies them: docs/reduced-model.md, the frame of the gravity: docs/frame-and-units.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from pnmold.conventions import gravity_direction
+from pnmold.design import Design
+from pnmold.physics.characterisation import Characterisation, distinct_steps
+from pnmold.physics.response import Response, responses, solve_stiffened
+from pnmold.physics.rom_law import Tables, interp
+
+#: strain of the rubber that carries the bend, as a fraction of the FE's peak principal strain
+#: (equibiaxial): fitted to the FE with Yeoh C20 + 0.05 MPa (fPN, coarse mesh), whose pressure
+#: for a given bend rose 1, 4 and 8 % at 11, 23 and 34 kPa (``benchmarks/rom.py --fe-effects``);
+#: the peak strain itself (fraction 1) would have predicted 10 times that
+REPRESENTATIVE_STRAIN = 0.12
+#: layer compliance: gain and strain scale of the lost stiffness share (see :func:`layer_softening`)
+LAYER_SHARE_GAIN, LAYER_STRAIN_SCALE = 0.75, 0.2
+
+
+def variant_responses(design: Design, c: Characterisation, tables: Tables) -> dict[str, dict[str, Response]]:
+    """effect -> {"bend", "volume", "length": Response} from the FE's variant runs of ``c`` (the layer
+    compliance's by the stiffness share it loses, the strain stiffening's by its dC20)."""
+    k = distinct_steps(c.pressure_kpa)
+    base = {"pressure_kpa": tables.p, "bend_angle_deg": c.bend_angle_deg[k],
+            "cavity_volume_ml": tables.volume_ml, "tip_x_mm": c.tip_x_mm[k], "tip_z_mm": c.tip_z_mm[k],
+            "clamp_x_mm": design.clamp_end_mm}
+    out = {}
+    layer = c.variant_runs("layer_compliance")
+    if layer:
+        out["layer_compliance"] = responses(
+            base, [(layer_share(design, r["value"]), r) for r in layer], softening=True)
+    stiff = c.variant_runs("strain_stiffening")
+    if stiff:
+        out["strain_stiffening"] = responses(base, [(r["value"], r) for r in stiff], softening=False)
+    return out
+
+
+def layer_share(design: Design, compliance_mm_per_n: float) -> float:
+    """The share of the bottom's stretching stiffness (N/mm) an added layer compliance c loses. With
+    paper: k_r/(k_p' + k_r) - k_r/(k_p + k_r), k_p = E t the paper's, k_p' = 1/(1/k_p + c), k_r = 6 C10
+    x thickness the bottom rubber's; without: the rubber limits the strain alone, 1 - k_r'/k_r."""
+    d = design
+    rubber = 6.0 * d.bottom_material.c10_mpa * d.bottom_layer.thickness_mm
+    if not d.paper.present:
+        return 1.0 - 1.0 / (1.0 + compliance_mm_per_n * rubber)
+    paper = d.paper.modulus_mpa * d.paper.thickness_mm
+    return rubber / (1.0 / (1.0 / paper + compliance_mm_per_n) + rubber) - rubber / (paper + rubber)
+
+
+def layer_softening(design: Design, tables: Tables, response: Mapping[str, Response] | None,
+                    compliance_mm_per_n: float, p_eff: Mapping[str, np.ndarray]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Factors on the pressure the shape and the volume read with an added layer compliance, and
+    the stretch of the free part.
+
+    From the FE variants (``response``, :mod:`.response`), the lost stiffness share as the intensity.
+    Without a variant: the shape's factor 1 + share x B, B = 0.75 / (1 + e/0.2) with e the FE's peak
+    strain (fitted to the FE: fPN, coarse mesh, c = 0.3 and 1 mm/N at 5-23 kPa: 6-24 % more pressure-
+    equivalent bend, the same tip path and volume), the volume's factor and the stretch 1."""
+    share = layer_share(design, compliance_mm_per_n)
+    if response is not None:
+        return (response["bend"](p_eff["bend"], share), response["volume"](p_eff["volume"], share),
+                response["length"](p_eff["bend"], share))
+    strain = np.maximum(interp(tables.p, tables.stretch, np.maximum(p_eff["bend"], 0.0)) - 1.0, 0.0)
+    return 1.0 + share * LAYER_SHARE_GAIN / (1.0 + strain / LAYER_STRAIN_SCALE), 1.0, 1.0
+
+
+def stiffening(design: Design, tables: Tables, response: Mapping[str, Response] | None, p_m: np.ndarray,
+               dc20: float, dc30: float) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray | float]:
+    """p_eff of the shape and of the volume (``{"bend": .., "volume": ..}``) with p_m = p_eff r(p_eff),
+    the shape's r there, and the stretch of the free part.
+
+    From the FE variants (``response``, :mod:`.response`) with intensity dC20 + 1.5 dC30 I1 (MPa): the
+    added Yeoh slope dW/dI1 / (2 I1) at the representative stretch, the variants' dC20 at C30 = 0.
+    Without a variant r is the ratio of the slopes themselves, alike for shape and volume."""
+    if not (dc20 or dc30):
+        return {"bend": p_m, "volume": p_m}, np.ones_like(p_m), 1.0
+    m = design.material
+
+    def i1(p):
+        peak = np.maximum(interp(tables.p, tables.stretch, np.maximum(p, 0.0)), 1.0)
+        lam = 1.0 + REPRESENTATIVE_STRAIN * (peak - 1.0)
+        return 2 * lam ** 2 + lam ** -4 - 3.0
+
+    if response is None:
+        def ratio(p):
+            base = m.c10_mpa + 2 * m.c20_mpa * i1(p) + 3 * m.c30_mpa * i1(p) ** 2
+            return 1.0 + (2 * dc20 * i1(p) + 3 * dc30 * i1(p) ** 2) / base
+
+        q = solve_stiffened(p_m, ratio)
+        return {"bend": q, "volume": q}, ratio(q), 1.0
+
+    def intensity(p):
+        return dc20 + 1.5 * dc30 * i1(p)
+
+    q = {key: solve_stiffened(p_m, lambda x, f=response[key]: f(x, intensity(x))) for key in ("bend", "volume")}
+    s = intensity(q["bend"])
+    return q, response["bend"](q["bend"], s), response["length"](q["bend"], s)
+
+
+def contact_onset(design: Design, c: Characterisation, gap_scale: float) -> float:
+    """Pressure where 2 x the inside walls' bulge equals the gap opened at mid-height (fPN only)."""
+    if design.gap_mm <= 0:
+        return float("inf")
+    ch = design.chambers
+    n = ch.count
+    z0 = design.top_z0_mm - design.bottom_z0_mm  # the top layer's base above the bottom layer's face
+    theta = np.radians(c.bend_angle_deg) / max(n - 1, 1)
+    dv = (c.cavity_volume_ml - c.cavity_volume_ml[0]) * 1000.0 / n
+    wedge = theta * ch.width_mm * ((z0 + ch.height_mm) ** 2 - z0 ** 2) / 2
+    bulge = 9.0 * np.maximum(dv - wedge, 0.0) / (8.0 * ch.width_mm * ch.height_mm)
+    margin = 2 * bulge - (gap_scale * design.gap_mm + theta * (z0 + ch.height_mm / 2))
+    hit = np.flatnonzero((margin[1:] >= 0) & (margin[:-1] < 0))
+    if not hit.size:
+        return float("inf")
+    i = hit[0]
+    p = c.pressure_kpa
+    return float(p[i] + (0.0 - margin[i]) / (margin[i + 1] - margin[i]) * (p[i + 1] - p[i]))
+
+
+def self_contact(tables: Tables, p_bend: np.ndarray, pc: float, k_contact: float, angle: np.ndarray,
+                 comp: np.ndarray, dhinge: np.ndarray) -> None:
+    """Self-contact, in place: the rows whose shape reads the law above the contact pressure ``pc``
+    keep the free rotation's increments above it, the hinges' compliance and their rotation per kPa
+    divided by 1 + ``k_contact``."""
+    over = p_bend > pc
+    if np.isfinite(pc) and over.any():
+        at_pc = interp(tables.p, tables.angle, np.full(int(over.sum()), pc))
+        angle[over] = at_pc + (angle[over] - at_pc) / (1.0 + k_contact)
+        comp[over] /= 1.0 + k_contact
+        dhinge[over] /= 1.0 + k_contact
+
+
+def gravity_xz(design: Design, orientation: str, g: float) -> tuple[float, float]:
+    """The in-plane (x, z) gravity of the orientation, in g (out of plane: none)."""
+    direction = gravity_direction(orientation, design.material.density_g_per_ml)
+    if g == 0 or direction is None:
+        return (0.0, 0.0)
+    return (g * direction[0], g * direction[2])
