@@ -47,10 +47,11 @@ class DesignRef:
 
     @classmethod
     def of(cls, design: Design) -> DesignRef:
-        """The reference to ``design``: what :func:`pnmold.report.build_report.design_entry` holds."""
-        from pnmold.design import digest
+        """The reference to ``design``: its build report's ``design`` entry
+        (:func:`pnmold.report.build_report.design_entry`)."""
+        from pnmold.report.build_report import design_entry
 
-        return cls(name=design.name, digest=digest(design), material=design.material.name, kind=design.kind)
+        return cls(**design_entry(design))
 
     def as_json(self) -> dict[str, str]:
         """The document's ``design``: name, kind, digest, material in that order, those not stated left out."""
