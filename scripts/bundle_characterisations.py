@@ -1,13 +1,14 @@
 """Write the templates' FE characterisations that ship with pnmold (``pnmold/data/characterisations/``).
 
 Each template is characterised afresh on the default mesh and pressure limit (free run, gravity
-probe, variant runs, blocked tip: one to a few minutes of FE each on 2 cores) in a temporary cache;
-``--blocked-only`` adds the blocked tip to the bundled file as it is (seconds); its numbers
-are rounded to 6 significant digits and the JSON written compact, under the cache's file name
-(design digest, mesh, pressure limit). Run it after a change of a template or of the
-characterisation: ``tests/test_rom.py`` fails until the bundled files are the templates' again.
+probe, variant runs, the on-demand probes: the blocked tip and the chambers-down compliance; one to a
+few minutes of FE each on 2 cores) in a temporary cache; ``--probes-only`` adds the on-demand probes
+to the bundled file as it is (a minute or two); its numbers are rounded to 6 significant digits and
+the JSON written compact, under the cache's file name (design digest, mesh, pressure limit). Run it
+after a change of a template or of the characterisation: ``tests/test_rom.py`` fails until the
+bundled files are the templates' again.
 
-    .venv/bin/python scripts/bundle_characterisations.py [--blocked-only] [TEMPLATE ...]
+    .venv/bin/python scripts/bundle_characterisations.py [--probes-only] [TEMPLATE ...]
 """
 
 from __future__ import annotations
@@ -40,14 +41,15 @@ def rounded(value, digits: int = 6):
 
 
 def main(names: list[str]) -> None:
-    blocked_only = "--blocked-only" in names
+    probes_only = "--probes-only" in names
     bundled = ch.BUNDLED_DIR
-    for name in [n for n in names if n != "--blocked-only"] or sorted(list_templates()):
+    for name in [n for n in names if n != "--probes-only"] or sorted(list_templates()):
         design = load_design(name)
         with tempfile.TemporaryDirectory() as tmp:
             os.environ["PNMOLD_CACHE"] = tmp
-            ch.BUNDLED_DIR = bundled if blocked_only else Path(tmp) / "none"  # afresh: not from the files written
-            result = ch.blocked_force_probe(design, progress=lambda stage: print(f"  {stage}", flush=True))
+            ch.BUNDLED_DIR = bundled if probes_only else Path(tmp) / "none"  # afresh: not from the files written
+            result = ch.characterised_for(design, ["force"], ["chambers_down"],
+                                          progress=lambda stage: print(f"  {stage}", flush=True))
         doc = rounded(result.to_json())
         name_on_disk = ch.cache_path(design, ch.DEFAULT_SIZE, ch.DEFAULT_MAX_PRESSURE_KPA).name
         for old in (ROOT / "pnmold" / "data" / "characterisations").glob(f"{design.name}-*.json"):

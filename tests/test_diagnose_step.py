@@ -166,7 +166,7 @@ def test_mixed_forward_routes_each_effect_to_the_model_that_carries_it(monkeypat
     dead = forward({"dead_volume": 4.0}, {"modulus_scale": 1.1})
     np.testing.assert_array_equal(dead[0]["tip_z_mm"], base[0]["tip_z_mm"])  # the ROM does not carry it
     assert np.max(np.abs(dead[1]["pressure_kpa"] - base[1]["pressure_kpa"])) > 1.0
-    grav = forward({"gravity": 1.0}, {"modulus_scale": 1.1})
+    grav = forward({"gravity": 0.3}, {"modulus_scale": 1.1})  # a weight other than the declared 1 g
     np.testing.assert_array_equal(grav[1]["pressure_kpa"], base[1]["pressure_kpa"])  # the step model does not
     assert np.max(np.abs(grav[0]["tip_z_mm"] - base[0]["tip_z_mm"])) > 0.1
 
@@ -248,12 +248,21 @@ def _check_contract(doc, report):
 def test_mixed_step_and_bending_diagnosis_names_the_pneumatic_effect(tmp_path):
     """A step recording beside a bending ramp of the same actuator: one modulus for both, the
     reduced model's effects judged too, the dead volume named from the step recording."""
-    from benchmarks import diagnose_blind as quasi
     from benchmarks.diagnose_blind_step import generate
+    from pnmold.physics import Protocol, ReducedModel
     from pnmold.physics.characterise import characterise
+    from pnmold.recording import write_recording
 
-    p_max = 0.75 * characterise(load_design("fpn")).full_bend_pressure_kpa
-    quasi.generate(quasi.Case("m", "fpn", None, 0.0, {}, 1.05, "chambers_up", 2.0, p_max, 6.0, "rom", 3), tmp_path)
+    fpn = load_design("fpn")
+    p_max = 0.75 * characterise(fpn).full_bend_pressure_kpa
+    ramp = Protocol.ramp("bending", p_max, p_max / 15, 3, 2.0, "chambers_up")
+    cols = ReducedModel.for_design(fpn).run(ramp, {}, None, {"modulus_scale": 1.05})  # a batch 5 % stiffer
+    rng = np.random.default_rng(3)
+    write_recording(tmp_path / "bending.csv", "bending",
+                    {"pressure_kpa": ramp.pressure_kpa, "cycle": ramp.cycle, "phase": ramp.phase,
+                     "time_s": ramp.times_s(), **{k: cols[k] + rng.normal(0.0, 0.2, len(ramp))
+                                                for k in ("tip_x_mm", "tip_z_mm")}},
+                    {"orientation": "chambers_up", "rate_kpa_per_s": "2"})
     generate(_case("m", "dead_volume", 6.0, 1.05, 250.0, 0.75, 6.0), tmp_path)
     out = tmp_path / "d.json"
     assert main(["diagnose", "fpn", str(tmp_path / "step.csv"), str(tmp_path / "bending.csv"), "--json", str(out),

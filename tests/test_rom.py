@@ -16,6 +16,7 @@ the fpn's first 12 kPa.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -368,3 +369,35 @@ def test_the_blocked_force_follows_the_fe_closer_with_the_probe():
     assert fe.size == 3 and np.all(np.diff(fe) > 0)
     assert np.abs(matched[:2] / fe[:2] - 1).max() < 0.03 and abs(matched[2] / fe[2] - 1) < 0.15
     assert np.all(np.abs(matched - fe) < np.abs(raw - fe))
+
+
+@pytest.mark.parametrize("orientation", ["chambers_up", "chambers_down"])
+def test_one_modulus_scale_for_every_term_follows_the_fe_of_a_scaled_rubber_under_its_weight(orientation):
+    """The diagnosis's batch nuisance, against the FE: the FE of a rubber every Yeoh term of which is x 0.9
+    and its density x 1.03 (stored, ``benchmarks/rom_scale.py``) under gravity, chambers up and hanging
+    chambers down, and the nominal reduced model with the same scales (chambers down on the compliance its
+    FE probe identified there). The scaled model follows the FE as the reduced model follows the FE of its
+    own rubber (within 2 % of the length; hanging chambers down up to 0.75 of the FE's last step: toward the
+    FE's pressure maximum, where the hanging body runs away, the model lags, docs/reduced-model.md, and is
+    only asked to stay closer than the unscaled model); a scale on the pressure alone, which leaves the
+    weight's sag at the nominal stiffness and density, misses by several times more."""
+    data = json.loads((Path(__file__).parent / "data" / "fig-s2a-h5-batch-steps.json").read_text())
+    design = load_design(data["design"])
+    rom = ReducedModel.for_design(design)
+    assert rom.tables.compliance_down is not None  # the template ships its chambers-down probe
+    steps = data["steps"][orientation]
+    p = np.array([s["pressure_kpa"] for s in steps])
+    fe = np.array([[s["tip_x_mm"], s["tip_z_mm"]] for s in steps])
+
+    def miss(out) -> np.ndarray:
+        return np.hypot(out["tip_x_mm"] - fe[:, 0], out["tip_z_mm"] - fe[:, 1]) / design.length_mm
+
+    scaled = miss(rom.run(Protocol("bending", p, orientation), None, None,
+                          {"modulus_scale": data["modulus_scale"], "density_scale": data["density_scale"]}))
+    unscaled = miss(rom.run(Protocol("bending", p, orientation)))
+    pressure_only = miss(rom.run(Protocol("bending", p / data["modulus_scale"], orientation)))
+    held = scaled if orientation == "chambers_up" else scaled[p <= 0.75 * p[-1]]
+    assert held.size >= 5
+    assert p[-1] > 40 and held.max() < 0.02
+    assert np.all(scaled <= unscaled) and unscaled.max() > 0.05
+    assert pressure_only.max() > 3 * held.max()

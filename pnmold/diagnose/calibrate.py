@@ -7,9 +7,16 @@
   range (``WIDE``, on a log grid, then refined); when it falls outside the window, the
   diagnosis says so in plain words (the material is the first thing to check, not physics)
   and judges the effects around the modulus found, with the usual window about it.
+- **The rubber's density.** A batch weighs a little more or less than the datasheet's (trapped air,
+  pigment, filler): where a recording's gravity acts in the bending plane the weight is calibrated
+  within +-10 % (``DENSITY_WINDOW``, assumed) with the modulus. A weight further off is not a batch:
+  it is named ``gravity`` (the data show another gravity than the declared one), and the gravity
+  hypothesis carries the density with it.
 - **The camera frame.** A recording whose tip is measured in a frame of its own (metadata
   ``tip_origin: camera``) calibrates the frame's offset and rotation with the modulus
-  (:data:`pnmold.physics.reading.FRAME`): registration, never an effect.
+  (:data:`pnmold.physics.reading.FRAME`): registration, never an effect. Its turn is held within
+  +-10 degrees (``ROTATION_WINDOW``, assumed: a camera set level by eye); a turn or an offset pinned at
+  its bound is said, with what to check.
 """
 
 from __future__ import annotations
@@ -31,6 +38,11 @@ WIDE = CALIBRATION["modulus_scale"][1]
 WIDE_POINTS = 43  # log grid: about 10 % apart
 #: a final modulus further than this share from the material check's is said too
 SETTLED_SHARE = 0.02
+#: the batch's density about the design's rubber's (assumed: air or filler in a cast silicone)
+DENSITY_WINDOW = (0.9, 1.1)
+#: a camera frame's turn (degrees) a registration may take (assumed: a camera set level by eye); its
+#: offsets keep the reduced model's bounds (the camera's origin is the lab's choice)
+ROTATION_WINDOW = (-10.0, 10.0)
 
 
 @dataclass(frozen=True)
@@ -48,14 +60,26 @@ class MaterialCheck:
 
 
 def frame_parameters() -> tuple[Parameter, ...]:
-    return tuple(Parameter(k, nominal, lo, hi, calibration=True) for k, (nominal, (lo, hi)) in FRAME.items())
+    windows = {"frame_rotation_deg": ROTATION_WINDOW}
+    return tuple(Parameter(k, nominal, *windows.get(k, bounds), calibration=True)
+                 for k, (nominal, bounds) in FRAME.items())
 
 
-def calibration_parameters(nominal_scale: float = 1.0, frame: bool = False) -> tuple[Parameter, ...]:
-    """The modulus (the window about ``nominal_scale``) and, for a camera frame, its registration."""
+def calibration_parameters(nominal_scale: float = 1.0, frame: bool = False, density: bool = False
+                           ) -> tuple[Parameter, ...]:
+    """The modulus (the window about ``nominal_scale``), with ``density`` the batch's density (the weight
+    acts in the bending plane) and, for a camera frame, its registration."""
     lo, hi = max(WINDOW[0] * nominal_scale, WIDE[0]), min(WINDOW[1] * nominal_scale, WIDE[1])
     modulus = Parameter("modulus_scale", min(max(nominal_scale, lo), hi), lo, hi, calibration=True)
-    return (modulus, *(frame_parameters() if frame else ()))
+    weight = (Parameter("density_scale", 1.0, *DENSITY_WINDOW, calibration=True),) if density else ()
+    return (modulus, *weight, *(frame_parameters() if frame else ()))
+
+
+def weighs_in_plane(recordings) -> bool:
+    """A quasi-static recording whose declared orientation puts the actuator's weight in its bending
+    plane (chambers up or down, submerged): its density is then a nuisance to calibrate."""
+    return any(r.kind != "step" and r.orientation in ("chambers_up", "chambers_down", "submerged")
+               for r in recordings)
 
 
 def reach_scale(predictions: list[dict[str, np.ndarray]]) -> float:
@@ -67,20 +91,22 @@ def reach_scale(predictions: list[dict[str, np.ndarray]]) -> float:
     return 1.0 / (1.0 - top) * (1.0 + 1e-3) if top > 0 else 0.0
 
 
-def check_material(fitter: Fitter, frame: bool, material: str, reach: float = 0.0) -> MaterialCheck:
+def check_material(fitter: Fitter, frame: bool, material: str, reach: float = 0.0, density: bool = False
+                   ) -> MaterialCheck:
     """The best modulus over :data:`WIDE` (the effects off), refined; a message when it is outside the
     window: which way the model is off, by how much, and what to check. ``reach``: the least modulus
     at which the model reaches every row (:func:`reach_scale`): the search starts there (a softer
     rubber than the recordings' highest pressure allows is not a candidate, whatever the effects)."""
-    h = Hypothesis((), calibration_parameters(1.0, frame))
+    h = Hypothesis((), calibration_parameters(1.0, frame, density))
     rest = np.array([p.start for p in h.parameters[1:]])
     floor = min(max(WIDE[0], reach), WIDE[1])
     grid = np.geomspace(floor, WIDE[1], WIDE_POINTS)
     chi2 = [float(np.sum(fitter.z(h, np.concatenate([[s], rest])) ** 2)) for s in grid]
     best = float(grid[int(np.argmin(chi2))])
-    near = Hypothesis((), calibration_parameters(best, frame))
-    wide = Hypothesis((), tuple(Parameter(p.key, p.start, max(p.low, floor), min(p.high, WIDE[1]), True)
-                                for p in near.parameters))
+    near = Hypothesis((), calibration_parameters(best, frame, density))
+    modulus, *rest_params = near.parameters  # the wide search widens the modulus alone
+    wide = Hypothesis((), (Parameter(modulus.key, modulus.start, max(modulus.low, floor), min(modulus.high, WIDE[1]),
+                                     True), *rest_params))
     fit = fitter.fit(wide, starts=[np.array([p.start for p in wide.parameters])])
     scale = min(max(float(fit.x[0]), floor), WIDE[1])  # the fit may step a rounding past its bound
     if WINDOW[0] <= scale <= WINDOW[1]:
@@ -132,6 +158,8 @@ def calibration_notes(final, calibration: tuple[Parameter, ...], check: Material
     if notes and abs(settled / check.scale - 1.0) > SETTLED_SHARE:
         notes.append(f"With the effects fitted, the modulus settled at {settled:.3g} x the design's.")
     for p in calibration:
+        if p.key not in final.fit.values:  # the density, carried by a named gravity
+            continue
         v = final.fit.values[p.key]
         side = _pinned(v, p)
         if side is not None:
@@ -139,6 +167,14 @@ def calibration_notes(final, calibration: tuple[Parameter, ...], check: Material
                 notes.append(f"The modulus calibration is pinned at its {side} bound ({v:.3g} x the design's): the "
                              f"recordings want a {'softer' if side == 'lower' else 'stiffer'} actuator than a batch "
                              f"of rubber varies by; check the material and the wall thicknesses before any physics.")
+            elif p.key == "density_scale":
+                notes.append(f"The rubber's density calibration is pinned at its {side} bound ({v:.3g} x the "
+                             f"design's): the actuator sags {'less' if side == 'lower' else 'more'} than a batch's "
+                             f"weight explains; check the orientation and whether anything holds or loads the tip.")
+            elif p.key == "frame_rotation_deg":
+                notes.append(f"The camera frame's turn is pinned at its {side} bound ({v:.3g} deg, more than a "
+                             f"camera set level by eye): the turn stands in for a misfit of the model; check the "
+                             f"recording's axes (x along the actuator, z up from its bottom face).")
             else:
                 notes.append(f"The camera frame's {p.key} is pinned at its {side} bound ({v:.3g}): check the "
                              f"recording's axes (x along the actuator, z up from its bottom face) and units.")

@@ -25,6 +25,7 @@ from .calibrate import (
     modulus_pinned,
     other_rubber_fits,
     reach_scale,
+    weighs_in_plane,
 )
 from .data import DataSet, build_dataset
 from .decide import DCHI2_MIN, Candidate, Decision, decide, excess_sigma, ladder_parameter
@@ -33,6 +34,7 @@ from .fitting import Fitter, Forward, zscores
 from .inputs import DesignRef, DiagnosisModel
 from .locate import locate
 from .reach import REFUSE_BEYOND_FE, extrapolation, out_of_reach, past_maximum
+from .rest import frame_notes
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -185,13 +187,15 @@ def diagnose(design: DesignRef, recordings: Sequence[Recording], model: Diagnosi
     effects = [e for e in model.effects if kinds & set(e.kinds)]
     cal = _calibrate(design, recordings, model, effects)
     final = cal.decision.final
-    notes = [*calibration_notes(final, cal.calibration, cal.check), *explain.left_out(recordings, cal.left_out),
+    notes = [*calibration_notes(final, cal.calibration, cal.check), *frame_notes(recordings, cal.data, final),
+             *explain.left_out(recordings, cal.left_out),
              *extrapolation(final.fit.predictions, cal.data, model.reach, final.fit.values.get("modulus_scale", 1.0))]
     mismatch, fit = _fit_summary(cal)
     unit = UNITS.get(fit["observable"], "")
     missing, rig_notes = _named_effects(cal, effects, recordings, mismatch, fit, unit)
     left, summary = _summary(cal, effects, fit, unit, missing)
-    summary = " ".join([explain.calibrated(final.fit.values), *notes, summary, *rig_notes])
+    summary = " ".join([explain.declared(recordings), explain.calibrated(final.fit.values), *notes, summary,
+                        *rig_notes])
     found = Findings(notes, mismatch, fit, missing, left, summary)
     doc = diagnosis_document(design, recordings, cal, found, time.perf_counter() - t0)
     return Diagnosis(doc, cal.data, cal.decision, time.perf_counter() - t0, tuple(effects))
@@ -205,6 +209,7 @@ def _calibrate(design: DesignRef, recordings: Sequence[Recording], model: Diagno
     without the rows out of reach. At most four rounds."""
     forward, design_floor = model.forward, model.design_floor
     frame = any(r.kind == "bending" and r.measurement.tip_origin == "camera" for r in recordings)
+    density = weighs_in_plane(recordings)
     scale, check, left_out, floor_at, refloored = 1.0, None, {}, None, False
     for _ in range(4):
         start = {} if scale == 1.0 else {"modulus_scale": scale}
@@ -212,14 +217,14 @@ def _calibrate(design: DesignRef, recordings: Sequence[Recording], model: Diagno
         data = build_dataset(list(recordings), _prediction(forward, recordings, start), model.model_form_share,
                              left_out, model.pressure_form_share, design_floor(floor_at) if design_floor else None)
         fitter = Fitter(data, forward)
-        calibration = calibration_parameters(scale, frame)
+        calibration = calibration_parameters(scale, frame, density)
         decision = decide(fitter, effects, seed=model.bootstrap_seed, calibration=calibration,
                           main=ladder_parameter(model.stiffening_top_mpa))
         pinned = modulus_pinned(decision, calibration)  # not a batch of rubber, and no effect frees it
         past = past_maximum(decision.final.fit.predictions, data)  # the rubber cannot reach the recordings
         if check is None and (pinned or past or baseline_pinned(decision, calibration)):
             least = reach_scale(_prediction(forward, recordings, {}))
-            check = check_material(fitter, frame, design.material or "rubber", least)
+            check = check_material(fitter, frame, design.material or "rubber", least, density)
             if not check.in_window and (pinned or past or other_rubber_fits(check, decision, DCHI2_MIN)):
                 scale, floor_at = check.scale, None
                 continue

@@ -27,20 +27,19 @@ OBSERVABLES = {
     "force": ("force_n",),
     "step": ("pressure_kpa", "bend_angle_deg", "flow_slpm", "pressure_far_kpa", "volume_ml"),
 }
-#: the model's own form error, as a share of each observable's range in a recording: the floor
-#: under the noise of a recording without repeated cycles, so that "significant" means beyond
-#: what the model could ever explain (assumed from what was measured: the reduced model misses
-#: the FE by 0.6-1.8 % of the length over a template's whole curve, README "Reduced model"; the
-#: FE's mesh error, about 2 % of the full-bend pressure, is mostly a stiffness scale the modulus
-#: calibration absorbs). Repeated cycles measure what the rig and the rubber do not repeat, the
-#: scale a model is judged against, and take its place.
+#: the model's own form error, as a share of each observable's range in a recording: a floor under
+#: the noise, so that "significant" means beyond what the model could ever explain (assumed from what
+#: was measured: the reduced model misses the FE by 0.6-1.8 % of the length over a template's whole
+#: curve, docs/reduced-model.md; the FE's mesh error, about 2 % of the full-bend pressure, is mostly a
+#: stiffness scale the modulus calibration absorbs). Repeated cycles measure what the rig and the rubber
+#: do not repeat, not how far the model is from the actuator: the floor stands beside them.
 MODEL_FORM_SHARE = 0.01
 #: the model's form error in pressure: a state the model reaches at p, the actuator may reach at
 #: p (1 +- this) (assumed from what was measured: the FE's full-bend pressure moved 1.2-1.9 % between
-#: the build mesh and a 1.6x finer one, ``benchmarks/fem.py``, README "Mesh convergence"; the reduced
-#: model reads the FE's law in pressure). On a quasi-static recording without repeated cycles it is
-#: carried through the model's slope dy/dp row by row: where the bend runs away at a nearly constant
-#: pressure (near a pressure maximum), no model can place the bend better than it places the pressure.
+#: the build mesh and a 1.6x finer one, ``benchmarks/fem.py``, docs/fe.md; the reduced model reads the
+#: FE's law in pressure). On a quasi-static recording it is carried through the model's slope dy/dp row
+#: by row: where the bend runs away at a nearly constant pressure (near a pressure maximum), no model can
+#: place the bend better than it places the pressure.
 PRESSURE_FORM_SHARE = 0.02
 #: recording kinds whose rows are indexed by a slowly varied pressure (the slope floor applies)
 QUASI_STATIC = ("bending", "pv", "force")
@@ -229,12 +228,11 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
     """Series for every observable of every recording. Each one's sigma is the measurement noise,
     estimated from the residual against ``baseline`` (a first prediction per recording, which
     removes the curve's own shape): the larger of the scatter of its second differences and of
-    the repeated cycles (2, 3, ...); a recording without repeated cycles adds (in quadrature) the
-    model-form floor, ``model_form_share`` of the observable's range in it and, row by row, the
-    baseline's pressure error (``pressure_form_share``) carried through its slope
-    (:func:`pressure_form`). ``design_form``: per recording, observable -> per row, the standard
-    deviation the design's stated dimensional uncertainty gives it
-    (:class:`pnmold.physics.uncertainty.DesignFloor`), added in quadrature always. ``left_out``:
+    the repeated cycles (2, 3, ...); to it is added (in quadrature) the model-form floor,
+    ``model_form_share`` of the observable's range in it and, row by row, the baseline's pressure error
+    (``pressure_form_share``) carried through its slope (:func:`pressure_form`). ``design_form``: per
+    recording, observable -> per row, the standard deviation the design's stated dimensional uncertainty
+    gives it (:class:`pnmold.physics.uncertainty.DesignFloor`), added in quadrature always. ``left_out``:
     recording index -> rows the model cannot reach (no equilibrium), left out of every series."""
     series: list[Series] = []
     branch0 = block0 = 0
@@ -254,13 +252,12 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             residual = np.where(np.isfinite(baseline[i][name]), y - baseline[i][name], 0.0)
             repeats = repeat_sigma(residual, rec)
             noise = max(noise_sigma(residual, branch, floor=1e-4 * max(span, 1e-9)), repeats or 0.0)
-            form = np.zeros(len(rec))
-            if repeats is None:  # in pressure directly where the pressure is the observable (read by volume)
-                if name == "pressure_kpa" and rec.kind in QUASI_STATIC:
-                    in_pressure = pressure_form_share * np.abs(y)
-                else:
-                    in_pressure = pressure_form(rec, _within_reach(baseline[i], name), branch, pressure_form_share, y)
-                form = np.hypot(model_form_share * span, in_pressure)
+            # in pressure directly where the pressure is the observable (read by volume)
+            if name == "pressure_kpa" and rec.kind in QUASI_STATIC:
+                in_pressure = pressure_form_share * np.abs(y)
+            else:
+                in_pressure = pressure_form(rec, _within_reach(baseline[i], name), branch, pressure_form_share, y)
+            form = np.hypot(model_form_share * span, in_pressure)
             # the design's own uncertainty is not in the rig's repeats: it stays whatever they say
             design = np.asarray(design_form[i].get(name, 0.0) if design_form else 0.0, float) * np.ones(len(rec))
             form, design = form[rows], design[rows]

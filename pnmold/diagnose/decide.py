@@ -43,6 +43,10 @@ JACOBIAN_STEP = 1e-3
 #: bounds reach a piston rig's air column (500 mL), yet a 1 mL fitting counts (assumed: 0.005 of the
 #: 20 mL the bounds of fittings and sensor tees were)
 RESOLUTION = {"dead_volume": 0.1}
+#: how far from the declared value an effect declared on (gravity: 1 g along the recording's orientation)
+#: must be to be named: what a nuisance the baseline calibrates could be instead (the batch's density,
+#: :data:`pnmold.diagnose.calibrate.DENSITY_WINDOW`, which the gravity hypothesis carries)
+DECLARED_TOLERANCE = {"gravity": 0.1}
 #: multi-start points of an effect's main parameter, as a share of its range
 STARTS = (0.03, 0.15, 0.4, 0.8)
 #: extra parameters fitted besides an effect's main one (the others stay at their catalogue
@@ -101,13 +105,24 @@ def excess_sigma(chi2: float, n: int) -> float:
     return (chi2 - n) / np.sqrt(2.0 * max(n, 1))
 
 
+def declared_value(key: str) -> float:
+    """The value the rig as declared gives an effect's main parameter ``key`` (its catalogue default:
+    gravity 1 g, every other term 0, its lower bound)."""
+    from pnmold.effects import EFFECTS
+
+    effect = EFFECTS.get(key)
+    return effect.default if effect is not None else 0.0
+
+
 def effect_parameters(effect, main: dict[str, Parameter] | None = None) -> tuple[Parameter, ...]:
-    """The fitted parameters of a catalogue effect: its main one and its extras (``main``: effect -> the
-    parameter fitted instead, alone)."""
+    """The fitted parameters of a catalogue effect: its main one (starting from the declared value where the
+    rig declares it on) and its extras (``main``: effect -> the parameter fitted instead, alone)."""
     if main and effect.name in main:
         return (main[effect.name],)
     lo, hi = effect.bounds
-    params = [Parameter(effect.name, lo + 0.1 * (hi - lo), lo, hi)]
+    declared = getattr(effect, "default", 0.0)
+    start = declared if lo < declared < hi else lo + 0.1 * (hi - lo)
+    params = [Parameter(effect.name, start, lo, hi)]
     for extra in effect.extra:
         key, _unit, default, (elo, ehi) = extra[0], extra[1], extra[2], extra[3]
         if key not in FIT_EXTRAS.get(effect.name, ()):
@@ -118,8 +133,11 @@ def effect_parameters(effect, main: dict[str, Parameter] | None = None) -> tuple
 
 def hypothesis(effects: list, calibration: tuple[Parameter, ...] | None = None,
                main: dict[str, Parameter] | None = None) -> Hypothesis:
-    """The nominal model (``calibration``: its recalibrated parameters) plus ``effects``."""
+    """The nominal model (``calibration``: its recalibrated parameters) plus ``effects``. With ``gravity``
+    the batch's density is not calibrated apart: the weight the data show is the gravity's value."""
     params = list(calibration if calibration is not None else calibration_parameters())
+    if any(e.name == "gravity" for e in effects):
+        params = [p for p in params if p.key != "density_scale"]
     for e in effects:
         params.extend(effect_parameters(e, main))
     return Hypothesis(tuple(e.name for e in effects), tuple(params))
@@ -132,18 +150,19 @@ def judge(fitter: Fitter, h: Hypothesis, starts: list[np.ndarray]) -> Candidate:
     return Candidate(full, z, xs)
 
 
-def starts_for(h: Hypothesis, base: np.ndarray | None = None) -> list[np.ndarray]:
-    """Multi-start points: the calibration (and any effect already fitted) from ``base``; the
-    newest effect's main parameter spread over its range, crossed with its extras' grids."""
-    x0 = np.array([p.start for p in h.parameters])
-    if base is not None:
-        x0[:base.size] = base
+def starts_for(h: Hypothesis, base: dict[str, float] | None = None) -> list[np.ndarray]:
+    """Multi-start points: the calibration (and any effect already fitted) from ``base`` (values by key);
+    the newest effect's main parameter spread over its range (and at its declared value where that is not
+    its lower bound), crossed with its extras' grids."""
+    base = base or {}
+    x0 = np.array([base.get(p.key, p.start) for p in h.parameters])
     grids = []
     for i, p in enumerate(h.parameters):
-        if base is not None and i < base.size or p.calibration:
+        if p.key in base or p.calibration:
             continue
         if _effect_of(p.key) is not None:
-            grids.append((i, [p.low + share * (p.high - p.low) for share in STARTS]))
+            declared = [p.start] if p.low < declared_value(p.key) == p.start else []
+            grids.append((i, [*declared, *(p.low + share * (p.high - p.low) for share in STARTS)]))
         elif p.key in EXTRA_STARTS:
             grids.append((i, list(EXTRA_STARTS[p.key])))
     out = [x0]
@@ -166,17 +185,25 @@ def compare(cand: Candidate, ref: Candidate, blocks: np.ndarray) -> None:
 
 
 def check_plausible(cand: Candidate, effect_names: tuple[str, ...]) -> None:
-    """Main parameters inside the bounds, off the upper bound, and clearly above zero (beyond twice
-    their fold spread and the effect's resolution)."""
+    """Main parameters inside the bounds, off the upper bound, and clearly away from the declared value
+    (an effect declared off: above zero, beyond twice their fold spread and the effect's resolution; one
+    declared on, gravity: beyond what a calibrated nuisance could be, :data:`DECLARED_TOLERANCE`, and twice
+    the fold spread)."""
     unc = cand.uncertainty()
     for p, v in zip(cand.fit.hypothesis.parameters, cand.fit.x, strict=True):
         if p.calibration or _effect_of(p.key) not in effect_names:
             continue
         span = p.high - p.low
+        declared = declared_value(p.key)
         if v >= p.high - 0.01 * span:
             cand.plausible = False
             cand.notes.append(f"{p.key} pinned at its upper bound {p.high:g}")
-        elif v - p.low < 2.0 * max(unc[p.key], RESOLUTION.get(p.key, 0.005 * span)):
+        elif declared != p.low and abs(v - declared) < DECLARED_TOLERANCE.get(p.key, 0.0) + 2.0 * max(
+                unc[p.key], RESOLUTION.get(p.key, 0.005 * span)):
+            cand.plausible = False
+            cand.notes.append(f"{p.key} = {v:.3g} not clearly other than the declared {declared:g} "
+                              f"(fold spread {unc[p.key]:.2g})")
+        elif declared == p.low and v - p.low < 2.0 * max(unc[p.key], RESOLUTION.get(p.key, 0.005 * span)):
             cand.plausible = False
             cand.notes.append(f"{p.key} = {v:.3g} not clearly above {p.low:g} (fold spread {unc[p.key]:.2g})")
 
@@ -213,7 +240,7 @@ def decide(fitter: Fitter, effects: list, seed: int = 0, calibration: tuple[Para
     rng = np.random.default_rng(seed)
     blocks = fitter.data.blocks
     base = judge(fitter, hypothesis([], calibration), [np.array([p.start for p in calibration])])
-    singles = [judge(fitter, h, starts_for(h, base.fit.x))
+    singles = [judge(fitter, h, starts_for(h, base.fit.values))
                for h in (hypothesis([e], calibration, main) for e in effects)]
     for c in singles:
         compare(c, base, blocks)
@@ -291,7 +318,7 @@ def _try_pairs(fitter: Fitter, first: Candidate, effects: list, blocks: np.ndarr
         if e.name in named:
             continue
         h = hypothesis([*[x for x in effects if x.name in named], e], calibration, main)
-        c = judge(fitter, h, starts_for(h, first.fit.x))
+        c = judge(fitter, h, starts_for(h, first.fit.values))
         compare(c, first, blocks)
         check_plausible(c, h.effects)
         if best is None or c.heldout_chi2 < best.heldout_chi2:

@@ -43,13 +43,23 @@ def main_parameter(effect, values: dict[str, float]) -> tuple[str, str]:
     return key, unit_of
 
 
+#: what to check when the data show an effect the rig declares on at another value than declared
+DECLARED_CHECK = {"gravity": "check how the actuator was held: a tip resting on a support or a table, a hand or "
+                             "tubing carrying its weight, or another orientation than the recording's metadata says"}
+
+
 def explanation(effect, values: dict[str, float], spread: dict[str, float], mismatch: list[dict],
                 rmse_before: float, rmse_after: float, unit: str) -> str:
     key, unit_of = main_parameter(effect, values)
     main = values[key]
     where = mismatch[0]["description"] if mismatch else "a small, spread-out misfit"
-    return (f"The model left out {effect.description[0].lower() + effect.description[1:].rstrip('.')} "
-            f"({effect.name}). What shows it: {where}; this is its fingerprint: "
+    what = effect.description[0].lower() + effect.description[1:].rstrip(".")
+    if getattr(effect, "default", 0.0) != 0.0:  # declared on by the rig: the data show it at another value
+        opening = (f"The data show {what} other than the rig declares ({effect.name}: {main:.3g} {unit_of} against "
+                   f"the declared {effect.default:g} {unit_of}); {DECLARED_CHECK.get(effect.name, 'check the rig')}.")
+    else:
+        opening = f"The model left out {what} ({effect.name})."
+    return (f"{opening} What shows it: {where}; this is its fingerprint: "
             f"{effect.fingerprint[0].lower() + effect.fingerprint[1:].rstrip('.')}. "
             f"With {key} = {main:.3g} {unit_of} (+- {spread[key]:.2g}), the held-out "
             f"error fell from {rmse_before:.3g} to {rmse_after:.3g} {unit}.")
@@ -103,9 +113,36 @@ def dead_volume_check(value_ml: float, spread_ml: float, bound: dict[str, float]
                    f"for it. Check the design's chambers (their size and how much their walls balloon).")
 
 
+def declared(recordings) -> str:
+    """The rig as the recordings declare it, the diagnosis's starting model, in words."""
+    parts = []
+    for r in recordings:
+        m = r.measurement
+        said = [f"{r.orientation} ({_weight(r.orientation)})"] if r.kind != "step" else ["a supply step"]
+        if r.kind == "bending":
+            said.append({"clamp": "the tip measured from the clamp", "rest": "the tip measured from its rest",
+                         "camera": "the tip in a camera's frame"}[m.tip_origin])
+            if m.bending_length_mm is not None:
+                said.append(f"the bend angle over {m.bending_length_mm:g} mm")
+        if r.kind == "pv":
+            said.append(f"{m.medium} driven by {'a piston' if m.rig == 'volume' else 'a regulator'}, "
+                        f"{m.air_column_ml:g} mL of air stated")
+        parts.append(f"{r.kind} {', '.join(said)}")
+    return ("The starting model is the rig as the recordings declare it: " + "; ".join(parts) + ". An effect is "
+            "named only where the data differ from that.")
+
+
+def _weight(orientation: str) -> str:
+    return {"chambers_up": "its weight along -z", "chambers_down": "its weight along +z",
+            "horizontal": "its weight out of the bending plane",
+            "submerged": "its weight less the water's buoyancy"}.get(orientation, "no weight")
+
+
 def calibrated(values: dict[str, float]) -> str:
     """The calibrated nominal values, in words (always shown: the answer rests on them)."""
     parts = [f"the rubber's modulus x {values['modulus_scale']:.3g} of the design's"]
+    if "density_scale" in values:
+        parts.append(f"its density x {values['density_scale']:.3g}")
     if "frame_dx_mm" in values:
         parts.append(f"the camera frame offset ({values['frame_dx_mm']:.3g}, {values['frame_dz_mm']:.3g}) mm and "
                      f"turned {values['frame_rotation_deg']:.3g} deg")

@@ -46,19 +46,29 @@ def stiffening_top(design: Design, recordings: Sequence[Recording], progress=Non
     return ReducedModel(design, stiffening_ladder(design, progress=progress)).ladder_top_mpa
 
 
-def rom_forward(design: Design, recordings: Sequence[Recording]) -> Forward:
-    """forward(effects, calibration) on the reduced model: every catalogued effect off
-    unless given (the baseline is the nominal model without any effect)."""
+def declared_effects(model: str = "rom") -> dict[str, float]:
+    """The rig as the recordings declare it: every catalogued effect ``model`` carries at the value a
+    simulation gives it when it is not named (its catalogue default: gravity 1 g along the recording's
+    orientation, buoyancy when submerged; every other term off). The baseline of a diagnosis is this, as
+    ``pnmold simulate`` and ``pnmold build`` are: an effect is named only where the data differ from it."""
     from pnmold.effects import EFFECTS
+
+    return {name: e.default for name, e in EFFECTS.items() if model in e.models}
+
+
+def rom_forward(design: Design, recordings: Sequence[Recording]) -> Forward:
+    """forward(effects, calibration) on the reduced model: every catalogued effect as declared
+    (:func:`declared_effects`) unless given; the protocol carries each recording's orientation, stated air
+    column, tip frame and bending length."""
     from pnmold.physics.protocol import Protocol
     from pnmold.physics.rom import ReducedModel
 
     rom = ReducedModel.for_design(design)
     protocols = [Protocol.from_recording(r) for r in recordings]
-    off = {name: 0.0 for name, e in EFFECTS.items() if "rom" in e.models}
+    declared = declared_effects()
 
     def forward(effects: dict[str, float], calibration: dict[str, float]) -> list[dict[str, np.ndarray]]:
-        return [rom.run(p, {**off, **effects}, None, calibration, partial=True) for p in protocols]
+        return [rom.run(p, {**declared, **effects}, None, calibration, partial=True) for p in protocols]
 
     return forward
 

@@ -11,6 +11,7 @@ from .core import Diagnosis, diagnose
 from .data import MODEL_FORM_SHARE, observables_of
 from .inputs import DesignRef, DiagnosisModel, Reach
 from .model import diagnosis_effects, diagnosis_forward, read_all, stiffening_top
+from .rest import RestCheck, check_rest
 
 
 def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: int = 0,
@@ -24,17 +25,17 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     JSON and the report folder. ``uncertain``: design dimension -> its standard uncertainty in mm (a
     design read off a drawing): each costs a free FE run once, and what it changes becomes a floor under
     the noise (:mod:`pnmold.physics.uncertainty`)."""
-    from pnmold.physics.characterise import blocked_force_probe, characterise, uncertainty_runs
+    from pnmold.physics.characterise import characterised_for, uncertainty_runs
     from pnmold.physics.uncertainty import DesignFloor, check_uncertain
 
     from .output import write_json_doc, write_report
 
     recordings = read_all(paths)
     uncertain = check_uncertain(design, uncertain or {})
-    c = characterise(design, progress=progress)
-    force = any(r.kind == "force" for r in recordings)
-    if force:  # the model's blocked tip matched to the FE's
-        c = blocked_force_probe(design, progress=progress)
+    force = any(r.kind == "force" for r in recordings)  # the model's blocked tip matched to the FE's
+    c = characterised_for(design, [r.kind for r in recordings], [r.orientation for r in recordings if r.kind != "step"],
+                          progress=progress)
+    rest, recordings = check_rest(recordings, diagnosis_forward(design, recordings), design.free_length_mm)
     reach = Reach(c.max_pressure_kpa, c.full_bend_pressure_kpa, c.reason)
     floor = None
     if uncertain:
@@ -58,6 +59,7 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
         diag = run(top) if top else diag
     if floor is not None:
         _say_floor(diag, floor)
+    _say_rest(diag, rest)
     if json_path:
         write_json_doc(diag, json_path)
     if report_dir:
@@ -78,3 +80,11 @@ def _say_floor(diag: Diagnosis, floor) -> None:
             + (f"; {', '.join(floor.short)} gave too short a run to read" if floor.short else "") + ".")
     diag.doc["calibration"]["notes"].append(note)
     diag.doc["summary"] = f"{diag.doc['summary']} {note}"
+
+
+def _say_rest(diag: Diagnosis, checks: list[RestCheck]) -> None:
+    """The rest rows' check in the JSON (``rest_check``) and, where one fails, its words first in the summary."""
+    diag.doc["rest_check"] = [c.as_json() for c in checks]
+    words = [c.words for c in checks if c.question]
+    if words:
+        diag.doc["summary"] = " ".join([*words, diag.doc["summary"]])

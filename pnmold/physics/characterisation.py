@@ -20,7 +20,7 @@ from pnmold.physics.identify import chamber_bounds_mm
 
 FORMAT = "pnmold.characterisation/1"
 CURVES = ("pressure_kpa", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "cavity_volume_ml", "max_principal_stretch")
-ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm")
+ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm", "compliance_down_rad_per_n_mm")
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,7 +30,9 @@ class Characterisation:
     Curves (S,) per converged step from 0 kPa; the rod (None when built from steps only):
     ``rod_x_mm`` (K+1,) reference x of the bottom line's nodes, ``rod_angle_rad`` and
     ``rod_length_mm`` (S, K) each edge's free angle and length, ``compliance_rad_per_n_mm``
-    (S, K) the hinge compliance at each edge's proximal node.
+    (S, K) the hinge compliance at each edge's proximal node (identified chambers up: a weight that
+    closes the bend); ``compliance_down_rad_per_n_mm`` (S, K) the same identified chambers down (a
+    weight that opens it; :func:`pnmold.physics.characterise.downward_probe`), None until asked for.
     """
 
     pressure_kpa: np.ndarray
@@ -56,6 +58,11 @@ class Characterisation:
     #: the FE's blocked tip (a rigid plane at its rest height, no gravity) at one small pressure:
     #: {"pressure_kpa", "force_n", "seconds"} (:func:`pnmold.physics.characterise.blocked_force_probe`), or None
     blocked: dict | None = None
+    #: the hinges' compliance under a weight that opens the bend (chambers down), from an FE probe at
+    #: ``probe_down_gravity_g`` (:func:`pnmold.physics.characterise.downward_probe`), and that probe's curves
+    compliance_down_rad_per_n_mm: np.ndarray | None = None
+    probe_down_gravity_g: float = 0.0
+    probe_down: dict | None = None
 
     def variant_runs(self, effect: str) -> list[dict[str, np.ndarray]]:
         """The FE variant runs of ``effect`` (arrays at distinct pressures, ``value``), by value."""

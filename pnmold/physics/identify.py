@@ -36,7 +36,8 @@ def bottom_line(nodes_mm: np.ndarray, shapes_mm: Sequence[np.ndarray]) -> tuple[
 
 def identify_compliance(design: Design, x: np.ndarray, free_angle: np.ndarray, probe_angle: np.ndarray,
                         probe_length: np.ndarray, probe_g: float, bandwidth_steps: float = 1.5) -> np.ndarray:
-    """(S, K) hinge compliance from the probe's extra hinge rotations over the free ones."""
+    """(S, K) hinge compliance from the probe's extra hinge rotations over the free ones; ``probe_g``: the
+    probe's gravity along -z in g (chambers up; negative: along +z, chambers down)."""
     from pnmold.physics.section import rod_loads
 
     loads = rod_loads(design, x)

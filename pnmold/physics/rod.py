@@ -36,6 +36,10 @@ _TOL_RAD = 1e-11
 _MAX_ITERATIONS = 12
 _MAX_STEP_RAD = 0.5
 _MAX_HALVINGS = 6
+#: an equilibrium whose tip turns this much more (or less) than its free shape does, from the row before
+#: it along the ramp, left the ramp's branch (assumed: a ramp's steps turn the loaded tip about as much as
+#: the free one; the fig-s2a-h5 hanging chambers down jumped 220 deg between 32 and 38 kPa)
+_BRANCH_JUMP_RAD = np.radians(45.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -151,6 +155,8 @@ def _solve_rows(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarr
                                            eta, force)
         if not ok.all():
             raise RodError(np.flatnonzero(~ok))
+        if plane_z_mm is None:
+            _follow_branch(angle_free, length, compliance, loads, gravity_xz, contact, eta, force)
         release = contact & (force < 0)
         if plane_z_mm is not None:
             tip_z = node_positions(angle_free + np.cumsum(eta, axis=1), length)[:, -1, 1]
@@ -190,6 +196,27 @@ def _equilibrium(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, 
         if good[0]:
             eta[i], force[i], ok[i] = e[0], f[0], True
     return eta, force, its, ok
+
+
+def _follow_branch(angle_free, length, compliance, loads, gravity_xz, contact, eta, force) -> None:
+    """In place: the rows in the order of their free tip angle (a pressure ramp's), each solved from rest
+    alone may have landed on another branch than the one the ramp follows (under an opposing weight a
+    curled rod has a second equilibrium, turned over). A row that left the branch of the row before it
+    (:data:`_BRANCH_JUMP_RAD`) is solved again from that row's equilibrium, as the actuator (and the FE's
+    path) goes; where the branch has no equilibrium there (past its limit point: the actuator snaps), the
+    other branch's state stays, and the ramp goes on from it."""
+    free_tip = angle_free[:, -1]
+    order = np.argsort(free_tip, kind="stable")
+    last = order[0]
+    for row in order[1:]:
+        jump = (eta[row].sum() - eta[last].sum())
+        if abs(jump) > _BRANCH_JUMP_RAD:
+            one = slice(row, row + 1)
+            e, f, _, good = _newton(angle_free[one], length[one], compliance[one], loads, gravity_xz, None,
+                                    contact[one], eta[last:last + 1].copy(), force[last:last + 1].copy())
+            if good[0]:
+                eta[row], force[row] = e[0], f[0]
+        last = row
 
 
 def structured_solve(compliance: np.ndarray, d: np.ndarray, rhs: np.ndarray) -> np.ndarray:

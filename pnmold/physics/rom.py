@@ -60,8 +60,10 @@ from pnmold.physics.rom_law import free_law, interp, slope
 from pnmold.physics.section import rod_loads
 
 #: name -> (nominal, bounds): the rubber's modulus as a multiple of the design's (a wrong material shows as
-#: 10x, assumed limits), and a camera frame's offset and rotation (:mod:`.reading`)
-CALIBRATION = {"modulus_scale": (1.0, (0.02, 50.0)), **FRAME}
+#: 10x, assumed limits; every Yeoh term alike, so a stiffer batch also sags less under its weight), the batch's
+#: density as a multiple of the design's (assumed limits: a rubber full of air or of filler), and a camera
+#: frame's offset and rotation (:mod:`.reading`)
+CALIBRATION = {"modulus_scale": (1.0, (0.02, 50.0)), "density_scale": (1.0, (0.5, 2.0)), **FRAME}
 #: a row is beyond the FE's characterisation when its effective pressure passes the FE's last one by this share
 BEYOND_FE_SHARE = 0.01
 #: the pressure grid a recording read by its volume is solved on: up to this multiple of its top recorded
@@ -177,8 +179,8 @@ class ReducedModel:
 
         ``effects``: values by name (and ``NAME.PARAM``), unnamed ones at their catalogue
         default (gravity 1 g, the rest off); ``params``: more ``NAME.PARAM`` values;
-        ``calibration``: nominal parameters (``modulus_scale``, 1 = the design's rubber; a camera
-        frame's offset and rotation). ``partial``: rows without an equilibrium (past a limit point)
+        ``calibration``: nominal parameters (``modulus_scale`` and ``density_scale``, 1 = the design's
+        rubber; a camera frame's offset and rotation). ``partial``: rows without an equilibrium (past a limit point)
         come back as NaN instead of raising :class:`SolveError`; rows beyond the FE's pressure maximum
         (none without ``partial``: an error) carry the state at the maximum, the nearest the model
         comes, and ``pressure_excess`` > 0, the share of their pressure the model cannot hold."""
@@ -194,8 +196,8 @@ class ReducedModel:
             return self.laddered(v(LADDER_EFFECT)).run(protocol, {**values, LADDER_EFFECT: 0.0}, None, calibration,
                                                        partial)
         law = self._law_pressures(protocol, v, cal["modulus_scale"], partial)
-        angle, length, comp, dhinge = self._hinges(law, protocol.kind, v)
-        state = self._equilibrium(protocol, angle, length, comp, v, partial)
+        angle, length, comp, dhinge = self._hinges(law, protocol.kind, v, protocol.orientation)
+        state = self._equilibrium(protocol, angle, length, comp, v, partial, cal["density_scale"])
         return self._observables(protocol, law, state, dhinge, cal, v)
 
     def _law_pressures(self, protocol: Protocol, v: Callable[[str], float], scale: float, partial: bool
@@ -227,14 +229,17 @@ class ReducedModel:
         return _LawPressures(stiff, ratio, np.broadcast_to(soft, p_bend.shape),
                              np.broadcast_to(stretch * layer_stretch, p_bend.shape), p_bend, p_vol, excess, past)
 
-    def _hinges(self, law: _LawPressures, kind: str, v: Callable[[str], float]
+    def _hinges(self, law: _LawPressures, kind: str, v: Callable[[str], float], orientation: str
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Step 3 of the module docstring: the edges' free angle and length, the hinges' compliance and
-        their free rotation per kPa of ``p_eff``, self-contact applied."""
+        """Step 3 of the module docstring: the edges' free angle and length, the hinges' compliance (the one
+        identified under a weight that opens the bend where the orientation's weight does, chambers down)
+        and their free rotation per kPa of ``p_eff``, self-contact applied."""
         t = self.tables
         angle = interp(t.p, t.angle, law.p_bend)
         length = interp(t.p, t.length, law.p_bend) * np.where(self.free_edge, law.stretch[:, None], 1.0)
-        comp = interp(t.p, t.compliance, law.p_bend, extrapolate=False) * (law.soft / (law.stiff * law.ratio))[:, None]
+        down = opens_the_bend(orientation) and t.compliance_down is not None
+        compliance = t.compliance_down if down else t.compliance
+        comp = interp(t.p, compliance, law.p_bend, extrapolate=False) * (law.soft / (law.stiff * law.ratio))[:, None]
         if kind == "force":
             comp = comp * self.blocked_compliance
         dhinge = np.diff(slope(t.p, t.angle, law.p_bend), axis=1, prepend=0.0) * law.soft[:, None]  # rad per kPa
@@ -245,10 +250,10 @@ class ReducedModel:
         return angle, length, comp, dhinge
 
     def _equilibrium(self, protocol: Protocol, angle: np.ndarray, length: np.ndarray, comp: np.ndarray,
-                     v: Callable[[str], float], partial: bool) -> RodState:
+                     v: Callable[[str], float], partial: bool, density_scale: float = 1.0) -> RodState:
         """Step 4 of the module docstring: the rod's equilibria under the weight (and, for ``force``, the
         plane); a row without one raises :class:`SolveError` unless ``partial``."""
-        gxz = gravity_xz(self.design, protocol.orientation, v("gravity"))
+        gxz = gravity_xz(self.design, protocol.orientation, v("gravity"), density_scale)
         try:
             return self._equilibria(angle, length, comp, gxz, 0.0 if protocol.kind == "force" else None, partial)
         except RodError as err:
@@ -337,6 +342,11 @@ class ReducedModel:
 
         return RodState(spread(state.angle_rad), spread(state.nodes_mm), spread(state.moment_n_mm),
                         spread(state.force_n), state.iterations)
+
+
+def opens_the_bend(orientation: str) -> bool:
+    """The orientation's weight turns the actuator against its bend (toward +z: chambers down)."""
+    return orientation == "chambers_down"
 
 
 def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:

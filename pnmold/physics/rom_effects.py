@@ -145,9 +145,11 @@ def self_contact(tables: Tables, p_bend: np.ndarray, pc: float, k_contact: float
         dhinge[over] /= 1.0 + k_contact
 
 
-def gravity_xz(design: Design, orientation: str, g: float) -> tuple[float, float]:
-    """The in-plane (x, z) gravity of the orientation, in g (out of plane: none)."""
-    direction = gravity_direction(orientation, design.material.density_g_per_ml)
+def gravity_xz(design: Design, orientation: str, g: float, density_scale: float = 1.0) -> tuple[float, float]:
+    """The in-plane (x, z) weight of the orientation per unit of the design's rubber weight, in g (out of
+    plane: none). ``density_scale``: the batch's density over the design's; submerged, the water's
+    buoyancy is taken from the batch's own weight (net ``s - rho_water / rho`` of the design's weight)."""
+    direction = gravity_direction(orientation, design.material.density_g_per_ml * density_scale)
     if g == 0 or direction is None:
         return (0.0, 0.0)
-    return (g * direction[0], g * direction[2])
+    return (g * density_scale * direction[0], g * density_scale * direction[2])

@@ -79,4 +79,6 @@ def ladder_characterisation(design: Design, c: Characterisation, ladder: list[di
                 f"the FE's runs end where their path meets a critical point (their pressure still rising): "
                 f"{p:.4g} kPa at {b:.1f} deg bend ({runs})"),
         mesh=c.mesh, rod_x_mm=x, rod_angle_rad=rows(angle) * scale[:, None], rod_length_mm=rows(length),
-        compliance_rad_per_n_mm=rows(comp), source="ladder", blocked=c.blocked)
+        compliance_rad_per_n_mm=rows(comp), source="ladder", blocked=c.blocked,
+        compliance_down_rad_per_n_mm=None if c.compliance_down_rad_per_n_mm is None else rows(
+            c.compliance_down_rad_per_n_mm), probe_down_gravity_g=c.probe_down_gravity_g)

@@ -30,6 +30,7 @@ class Tables:
     offset_deg: np.ndarray  # (S,) FE bend angle minus the last edge's angle
     volume_ml: np.ndarray  # (S,)
     stretch: np.ndarray  # (S,)
+    compliance_down: np.ndarray | None = None  # (S, K) under a weight that opens the bend; None: as ``compliance``
 
 
 def interp(p: np.ndarray, table: np.ndarray, x: np.ndarray, extrapolate: bool = True) -> np.ndarray:
@@ -62,8 +63,9 @@ def free_law(design: Design, c: Characterisation) -> tuple[np.ndarray, Tables]:
     x, angle, length, comp = rod_of(design, c)
     offset = c.bend_angle_deg - np.degrees(angle[:, -1])
     k = distinct_steps(c.pressure_kpa)
+    down = c.compliance_down_rad_per_n_mm if c.has_rod else None
     return x, Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
-                     c.max_principal_stretch[k])
+                     c.max_principal_stretch[k], None if down is None else down[k])
 
 
 def even_rod(design: Design, c: Characterisation):

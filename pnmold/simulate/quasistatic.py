@@ -144,11 +144,11 @@ def simulate(design: Design, request: SimulationRequest, *, json_path: str | Pat
     if vtu_dir is not None and request.model != "fe":
         raise UsageError("--vtu: only the FE model (--model fe) has fields to write")
     if request.model == "rom":
-        from pnmold.physics.characterise import blocked_force_probe, characterise
+        from pnmold.physics.characterise import characterised_for
 
-        characterised = blocked_force_probe if request.kind == "force" else characterise
-        doc = simulate_rom(design, request, characterised(design, size=_mesh_size(request, None, rom=True),
-                                                          progress=progress))
+        doc = simulate_rom(design, request, characterised_for(design, [request.kind], [request.orientation],
+                                                              size=_mesh_size(request, None, rom=True),
+                                                              progress=progress))
     else:
         doc = simulate_fe(design, request, vtu_dir=vtu_dir)
     written = [Path(doc["paraview"]["pvd"])] if vtu_dir is not None else []
@@ -241,14 +241,14 @@ def simulate_fe(design: Design, request: SimulationRequest, *, vtu_dir: str | Pa
 def simulate_rom(design: Design, request: SimulationRequest, characterisation=None) -> dict[str, Any]:
     """Run the reduced model (characterising the design first, cached); the same document."""
     from pnmold.effects import check_effects
-    from pnmold.physics import Protocol, ReducedModel, characterise
+    from pnmold.physics import Protocol, ReducedModel
 
     effects = check_effects(dict(request.effects), model="rom")
     if characterisation is None:
-        from pnmold.physics.characterise import blocked_force_probe
+        from pnmold.physics.characterise import characterised_for
 
-        characterised = blocked_force_probe if request.kind == "force" else characterise
-        characterisation = characterised(design, size=_mesh_size(request, rom=True))
+        characterisation = characterised_for(design, [request.kind], [request.orientation],
+                                             size=_mesh_size(request, rom=True))
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
                                        request.rate_kpa_per_s, request.orientation)
