@@ -32,7 +32,11 @@ draw the tip's noise in 0.1-0.6 mm. A concealed magnitude whose signature is und
 an effect the model's form error hides tests nothing.
 
     .venv/bin/python benchmarks/diagnose_blind.py [--per-effect 8] [--null 20] [--seed 1]
-        [--out out/blind] [--source auto|rom] [--jobs 2] [--random-designs 2] [--batches 2]
+        [--out out/blind] [--source auto|rom] [--jobs 2] [--random-designs 2] [--batches 2] [--rescore]
+
+A case whose bending recording holds fewer than three distinct pressures (its solve ended at rest,
+e.g. a batch that cannot be pressurised in its orientation under its own weight) is said and left out.
+``--rescore`` scores a finished run's ``results.json`` again.
 
 An interrupted run resumes: designs, batches and recordings already written are kept (and the FE's
 characterisations are cached). The summary adds the scores per design (template or random), per
@@ -93,6 +97,8 @@ KEPT_METADATA = ("orientation", "rate_kpa_per_s")
 #: the least signature of a concealed effect (RMS, a share of the observable's range): three times the
 #: model's own form error the diagnosis allows for (pnmold.diagnose.data.MODEL_FORM_SHARE)
 MIN_SIGNATURE = 0.03
+#: the least number of distinct pressures a case's bending recording must hold to be scored
+MIN_PRESSURES = 3
 
 
 @dataclass(frozen=True)
@@ -379,6 +385,26 @@ def _make(c: Case, data: Path, key_dir: Path) -> Case:
     return c
 
 
+def testable(folder: Path) -> bool:
+    """Whether the case's bending recording holds at least :data:`MIN_PRESSURES` distinct pressures: a
+    batch whose solve ends at rest (e.g. a floppy Ecoflex design that cannot be pressurised chambers up
+    under its own weight) gives a recording of rest rows, which tests no diagnosis."""
+    rec = read_recording(folder / "bending.csv")
+    return np.unique(np.round(rec.columns["pressure_kpa"], 6)).size >= MIN_PRESSURES
+
+
+def kept(cases: list[Case], data: Path) -> list[Case]:
+    """The cases whose recordings can test a diagnosis (:func:`testable`); the others said and left out."""
+    out = []
+    for c in cases:
+        if testable(data / c.id):
+            out.append(c)
+        else:
+            print(f"{c.id}: left out: {Path(c.batch).stem} {c.orientation} holds rest rows only (its solve "
+                  f"ended at rest)", flush=True)
+    return out
+
+
 # -- diagnosing and scoring ------------------------------------------------------------------------------
 def diagnose_case(folder: Path, design: str) -> tuple[dict | None, float, str]:
     """``pnmold diagnose`` as a user runs it; (JSON or None, seconds, stderr)."""
@@ -472,7 +498,7 @@ def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: i
     cases = draw_cases(per_effect, n_null, seed, source, batches)
     # generate in single-threaded worker processes (the FE cases dominate: one per core)
     with _one_thread(), ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        cases = list(pool.map(_make, cases, [data] * len(cases), [key_dir] * len(cases)))
+        cases = kept(list(pool.map(_make, cases, [data] * len(cases), [key_dir] * len(cases))), data)
 
     def one(c: Case):
         doc, seconds, err = diagnose_case(data / c.id, c.design)
@@ -504,8 +530,14 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--random-designs", type=int, default=2)
     parser.add_argument("--batches", type=int, default=2)
+    parser.add_argument("--rescore", action="store_true", help="score the results.json of --out again")
     args = parser.parse_args()
     t0 = time.perf_counter()
+    if args.rescore:
+        saved = json.loads((args.out / "results.json").read_text())
+        cases = kept([Case(**k) for k in saved["key"]], args.out / "cases")
+        print(score_text(score(cases, saved["results"])))
+        return
     s = score_text(run(args.per_effect, args.null, args.seed, args.out, args.source, args.jobs,
                        args.random_designs, args.batches))
     print(s)

@@ -241,8 +241,9 @@ def test_a_psi_recording_diagnoses_like_its_kpa_twin(tmp_path):
     design = "fig-s2a-h5"  # its characterisation ships with pnmold: no FE here
     kpa = {"bending": tmp_path / "bending.csv", "pv": tmp_path / "pv.csv"}
     for kind, noise in (("bending", ["--noise-mm", "0.3"]), ("pv", ["--noise-ml", "0.01"])):
+        # a weight other than the declared (a tip resting on a support): something to name in both units
         assert main(["-q", "simulate", design, "--model", "rom", "--kind", kind, "--pressures", "0:40:5", *noise,
-                     "--seed", "3", "--recording", str(kpa[kind])]) == 0
+                     "--effects", "gravity=0.3", "--seed", "3", "--recording", str(kpa[kind])]) == 0
     psi = {k: tmp_path / f"{k}-psi.csv" for k in kpa}
     _to_psi(kpa["bending"], psi["bending"])
     _to_psi(kpa["pv"], psi["pv"], volume_in_ul=True)
