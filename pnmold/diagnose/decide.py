@@ -120,7 +120,7 @@ def effect_parameters(effect, main: dict[str, Parameter] | None = None) -> tuple
     if main and effect.name in main:
         return (main[effect.name],)
     lo, hi = effect.bounds
-    declared = getattr(effect, "default", 0.0)
+    declared = declared_value(effect.name)
     start = declared if lo < declared < hi else lo + 0.1 * (hi - lo)
     params = [Parameter(effect.name, start, lo, hi)]
     for extra in effect.extra:
@@ -198,14 +198,11 @@ def check_plausible(cand: Candidate, effect_names: tuple[str, ...]) -> None:
         if v >= p.high - 0.01 * span:
             cand.plausible = False
             cand.notes.append(f"{p.key} pinned at its upper bound {p.high:g}")
-        elif declared != p.low and abs(v - declared) < DECLARED_TOLERANCE.get(p.key, 0.0) + 2.0 * max(
+        elif abs(v - declared) < DECLARED_TOLERANCE.get(p.key, 0.0) + 2.0 * max(
                 unc[p.key], RESOLUTION.get(p.key, 0.005 * span)):
             cand.plausible = False
-            cand.notes.append(f"{p.key} = {v:.3g} not clearly other than the declared {declared:g} "
-                              f"(fold spread {unc[p.key]:.2g})")
-        elif declared == p.low and v - p.low < 2.0 * max(unc[p.key], RESOLUTION.get(p.key, 0.005 * span)):
-            cand.plausible = False
-            cand.notes.append(f"{p.key} = {v:.3g} not clearly above {p.low:g} (fold spread {unc[p.key]:.2g})")
+            than = f"above {p.low:g}" if declared == p.low else f"other than the declared {declared:g}"
+            cand.notes.append(f"{p.key} = {v:.3g} not clearly {than} (fold spread {unc[p.key]:.2g})")
 
 
 def bootstrap_stability(fitter: Fitter, cands: list[Candidate], rng: np.random.Generator) -> None:
