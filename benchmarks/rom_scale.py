@@ -49,13 +49,24 @@ def batch_of(design, modulus: float, density: float):
                           density_g_per_ml=m.density_g_per_ml * density)
 
 
-def fe_steps(design, orientation: str, pressures: np.ndarray) -> list[dict]:
+def fe_steps(design, orientation: str, pressures: np.ndarray, effects: dict | None = None) -> list[dict]:
+    """The FE's tip and bend at ``pressures`` (the characterisation's mesh, Earth's gravity, ``effects``)."""
     from pnmold.design_fe import run_fe
 
-    sol = run_fe(design, size=DEFAULT_SIZE, orientation=orientation, pressures_kpa=list(pressures),
+    sol = run_fe(design, size=DEFAULT_SIZE, orientation=orientation, effects=effects, pressures_kpa=list(pressures),
                  keep_partial=True).solution
     return [{k: round(float(v), 6) for k, v in s.as_dict().items() if k in
              ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg")} for s in sol.steps]
+
+
+def add_test_steps(path: Path, written: dict, head: dict, orientation: str, steps: list[dict], script: str) -> dict:
+    """``written`` with ``orientation``'s FE ``steps`` added, written to ``path`` (test data); the new document."""
+    written = {**head, "mesh": [DEFAULT_SIZE.wall_mm, DEFAULT_SIZE.max_mm],
+               "produced_by": f"benchmarks/{script} --write-test-data",
+               "steps": {**written.get("steps", {}), orientation: steps}}
+    write_json(path, written)
+    print(f"wrote {path.relative_to(ROOT)} ({orientation})")
+    return written
 
 
 def misses(design, rom: ReducedModel, steps: list[dict], orientation: str, calibration: dict) -> np.ndarray:
@@ -101,11 +112,8 @@ def main() -> None:
                       f"{100 * partial.max():.2f} / {100 * partial.mean():.2f}; "
                       f"unscaled {100 * nominal.max():.2f} / {100 * nominal.mean():.2f}", flush=True)
                 if args.write_test_data and name == args.templates[0] and (modulus, density) == BATCHES[0]:
-                    written = {"design": name, **scales, "mesh": [DEFAULT_SIZE.wall_mm, DEFAULT_SIZE.max_mm],
-                               "produced_by": "benchmarks/rom_scale.py --write-test-data",
-                               "steps": {**written.get("steps", {}), orientation: steps}}
-                    write_json(TEST_DATA, written)
-                    print(f"wrote {TEST_DATA.relative_to(ROOT)} ({orientation})")
+                    written = add_test_steps(TEST_DATA, written, {"design": name, **scales}, orientation, steps,
+                                             "rom_scale.py")
     print(f"total {time.perf_counter() - t0:.0f} s")
 
 

@@ -106,8 +106,9 @@ CATALOGUE: tuple[Effect, ...] = (
         rom="the bend and the volume each read the free law at p_eff x a factor from the FE's own free runs "
             "with 0.05 and 0.15 mm/N (the characterisation's variants), piecewise linear in the share of "
             "the bottom's stretching stiffness lost, A = k_r/(k_p + k_r) - (same at value 0) (k_p = 1/(1/(E t) "
-            "+ value) the paper's, k_r = 6 C10 x bottom layer the rubber's); the hinge compliance grows by the "
-            "bend's factor. Without the FE variants: the bend's factor 1 + A x 0.75/(1 + e/0.2), e the FE's "
+            "+ value) the paper's, k_r = 6 C10 x bottom layer the rubber's); the hinge compliance under the weight is "
+            "the FE's probe with the layer at 0.15 mm/N, in proportion to A (without that probe: it grows by the "
+            "bend's factor). Without the FE variants: the bend's factor 1 + A x 0.75/(1 + e/0.2), e the FE's "
             "peak strain, the volume's 1",
         fe="paper.modulus_mpa = 1 / (t (1/(E t) + value)): the membrane's E*t in series with the added compliance",
         source="bounds: 0 = the paper (E t = 650 N/mm, " + SI + "); 1 mm/N ~ no paper (2 mm of rubber, "

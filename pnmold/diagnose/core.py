@@ -246,7 +246,7 @@ def _fit_summary(cal: Calibrated) -> tuple[list[dict[str, Any]], dict[str, Any]]
     out, of the observable it misses most (``fit``)."""
     data, fitter, base, final = cal.data, cal.fitter, cal.decision.baseline, cal.decision.final
     mismatch = locate(data, by_series(data, _full_z(fitter, base)), residuals=_residuals(data, base))
-    observable = mismatch[0]["observable"] if mismatch else data.series[0].observable
+    observable = mismatch[0]["observable"] if mismatch else _most_gained(data, base, final)
     fit = {
         "observable": observable,
         "rmse_before": _rmse(data, _full_z(fitter, base), observable),
@@ -255,6 +255,16 @@ def _fit_summary(cal: Calibrated) -> tuple[list[dict[str, Any]], dict[str, Any]]
         "heldout_rmse_after": _rmse(data, final.heldout_z, observable),
     }
     return mismatch, fit
+
+
+def _most_gained(data: DataSet, base: Candidate, final: Candidate) -> str:
+    """The observable on which ``final`` gains most held-out chi-square over ``base`` (the first series' when
+    no window stands out and the two are alike): where a misfit too spread out to locate was removed."""
+    gains: dict[str, float] = {}
+    for s, zb, zf in zip(data.series, by_series(data, base.heldout_z), by_series(data, final.heldout_z), strict=True):
+        gains[s.observable] = gains.get(s.observable, 0.0) + float(np.sum(zb ** 2) - np.sum(zf ** 2))
+    best = max(gains, key=gains.get)
+    return best if gains[best] > 0 else data.series[0].observable
 
 
 def _named_effects(cal: Calibrated, effects: list, recordings: Sequence[Recording], mismatch: list[dict[str, Any]],
@@ -274,8 +284,9 @@ def _named_effects(cal: Calibrated, effects: list, recordings: Sequence[Recordin
             "evidence": {"heldout_chi2_gain": round(cand.gain, 1), "heldout_gain_t": round(cand.t_gain, 2),
                          "excess_removed": round(cand.excess_share, 3), "bootstrap_wins": round(cand.stability, 3),
                          "heldout_chi2_per_point": round(cand.heldout_chi2 / cand.heldout_z.size, 3)},
+            "at_bound": cand.at_bound,
             "explanation": explain.explanation(effect, values, spread, mismatch, fit["heldout_rmse_before"],
-                                               fit["heldout_rmse_after"], unit),
+                                               fit["heldout_rmse_after"], unit, cand.at_bound),
         })
         if name == "dead_volume":
             rig_notes += _check_rig(missing[-1], recordings, final.fit.predictions)

@@ -49,7 +49,7 @@ DECLARED_CHECK = {"gravity": "check how the actuator was held: a tip resting on 
 
 
 def explanation(effect, values: dict[str, float], spread: dict[str, float], mismatch: list[dict],
-                rmse_before: float, rmse_after: float, unit: str) -> str:
+                rmse_before: float, rmse_after: float, unit: str, at_bound: bool = False) -> str:
     key, unit_of = main_parameter(effect, values)
     main = values[key]
     where = mismatch[0]["description"] if mismatch else "a small, spread-out misfit"
@@ -59,9 +59,13 @@ def explanation(effect, values: dict[str, float], spread: dict[str, float], mism
                    f"the declared {effect.default:g} {unit_of}); {DECLARED_CHECK.get(effect.name, 'check the rig')}.")
     else:
         opening = f"The model left out {what} ({effect.name})."
+    bound = (f", the catalogue's upper bound: the data want at least that much (a stronger {effect.name} than "
+             f"the catalogue assumes plausible, or a model that carries it weaker than the actuator does)"
+             if at_bound else f" (+- {spread[key]:.2g})")
+    unit_words = "" if unit_of in ("", "1") else f" {unit_of}"  # a ratio has no unit to say
     return (f"{opening} What shows it: {where}; this is its fingerprint: "
             f"{effect.fingerprint[0].lower() + effect.fingerprint[1:].rstrip('.')}. "
-            f"With {key} = {main:.3g} {unit_of} (+- {spread[key]:.2g}), the held-out "
+            f"With {key} = {main:.3g}{unit_words}{bound}, the held-out "
             f"error fell from {rmse_before:.3g} to {rmse_after:.3g} {unit}.")
 
 

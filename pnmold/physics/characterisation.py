@@ -20,7 +20,8 @@ from pnmold.physics.identify import chamber_bounds_mm
 
 FORMAT = "pnmold.characterisation/1"
 CURVES = ("pressure_kpa", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "cavity_volume_ml", "max_principal_stretch")
-ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm", "compliance_down_rad_per_n_mm")
+ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm", "compliance_down_rad_per_n_mm",
+       "compliance_layer_rad_per_n_mm", "compliance_down_layer_rad_per_n_mm")
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +64,15 @@ class Characterisation:
     compliance_down_rad_per_n_mm: np.ndarray | None = None
     probe_down_gravity_g: float = 0.0
     probe_down: dict | None = None
+    #: the chambers-up and chambers-down compliances with the strain-limiting layer made compliant by
+    #: ``probe_layer_mm_per_n`` (the ``layer_compliance`` effect), from a free run and probes with it
+    #: (:func:`pnmold.physics.characterise.layer_probe`); None until asked for
+    compliance_layer_rad_per_n_mm: np.ndarray | None = None
+    compliance_down_layer_rad_per_n_mm: np.ndarray | None = None
+    probe_layer_mm_per_n: float = 0.0
+    #: on-demand probes tried that did not serve (``down``, ``layer chambers_up``, ``layer chambers_down``) ->
+    #: why: not tried again (the model keeps what it has without them)
+    probes_failed: dict = field(default_factory=dict)
 
     def variant_runs(self, effect: str) -> list[dict[str, np.ndarray]]:
         """The FE variant runs of ``effect`` (arrays at distinct pressures, ``value``), by value."""

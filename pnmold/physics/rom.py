@@ -50,6 +50,7 @@ from pnmold.physics.rod import RodLoads, RodState, solve_rod
 from pnmold.physics.rom_effects import (
     contact_onset,
     gravity_xz,
+    layer_share,
     layer_softening,
     self_contact,
     stiffening,
@@ -239,7 +240,15 @@ class ReducedModel:
         length = interp(t.p, t.length, law.p_bend) * np.where(self.free_edge, law.stretch[:, None], 1.0)
         down = opens_the_bend(orientation) and t.compliance_down is not None
         compliance = t.compliance_down if down else t.compliance
-        comp = interp(t.p, compliance, law.p_bend, extrapolate=False) * (law.soft / (law.stiff * law.ratio))[:, None]
+        soft = law.soft
+        layer, probed = v("layer_compliance"), t.compliance_down_layer if down else t.compliance_layer
+        if layer > 0 and probed is not None:
+            # the FE's probe of the orientation's weight with a compliant layer, in proportion to the share of
+            # the bottom's stiffness lost (instead of the bend's factor): the layer carries the weight's moment
+            w = layer_share(self.design, layer) / layer_share(self.design, t.layer_mm_per_n)
+            compliance = compliance + w * (probed - compliance)
+            soft = np.ones_like(soft)
+        comp = interp(t.p, compliance, law.p_bend, extrapolate=False) * (soft / (law.stiff * law.ratio))[:, None]
         if kind == "force":
             comp = comp * self.blocked_compliance
         dhinge = np.diff(slope(t.p, t.angle, law.p_bend), axis=1, prepend=0.0) * law.soft[:, None]  # rad per kPa

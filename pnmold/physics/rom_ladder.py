@@ -81,4 +81,8 @@ def ladder_characterisation(design: Design, c: Characterisation, ladder: list[di
         mesh=c.mesh, rod_x_mm=x, rod_angle_rad=rows(angle) * scale[:, None], rod_length_mm=rows(length),
         compliance_rad_per_n_mm=rows(comp), source="ladder", blocked=c.blocked,
         compliance_down_rad_per_n_mm=None if c.compliance_down_rad_per_n_mm is None else rows(
-            c.compliance_down_rad_per_n_mm), probe_down_gravity_g=c.probe_down_gravity_g)
+            c.compliance_down_rad_per_n_mm), probe_down_gravity_g=c.probe_down_gravity_g,
+        compliance_layer_rad_per_n_mm=None if c.compliance_layer_rad_per_n_mm is None else rows(
+            c.compliance_layer_rad_per_n_mm),
+        compliance_down_layer_rad_per_n_mm=None if c.compliance_down_layer_rad_per_n_mm is None else rows(
+            c.compliance_down_layer_rad_per_n_mm), probe_layer_mm_per_n=c.probe_layer_mm_per_n)

@@ -31,6 +31,10 @@ class Tables:
     volume_ml: np.ndarray  # (S,)
     stretch: np.ndarray  # (S,)
     compliance_down: np.ndarray | None = None  # (S, K) under a weight that opens the bend; None: as ``compliance``
+    #: (S, K) each with the layer made compliant by ``layer_mm_per_n`` (the FE's probes); None: not probed
+    compliance_layer: np.ndarray | None = None
+    compliance_down_layer: np.ndarray | None = None
+    layer_mm_per_n: float = 0.0
 
 
 def interp(p: np.ndarray, table: np.ndarray, x: np.ndarray, extrapolate: bool = True) -> np.ndarray:
@@ -64,8 +68,13 @@ def free_law(design: Design, c: Characterisation) -> tuple[np.ndarray, Tables]:
     offset = c.bend_angle_deg - np.degrees(angle[:, -1])
     k = distinct_steps(c.pressure_kpa)
     down = c.compliance_down_rad_per_n_mm if c.has_rod else None
+    probed = c.has_rod and c.probe_layer_mm_per_n > 0
+    up_layer = c.compliance_layer_rad_per_n_mm if probed else None
+    down_layer = c.compliance_down_layer_rad_per_n_mm if probed and down is not None else None
     return x, Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
-                     c.max_principal_stretch[k], None if down is None else down[k])
+                     c.max_principal_stretch[k], None if down is None else down[k],
+                     None if up_layer is None else up_layer[k], None if down_layer is None else down_layer[k],
+                     c.probe_layer_mm_per_n)
 
 
 def even_rod(design: Design, c: Characterisation):

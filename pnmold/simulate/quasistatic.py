@@ -146,8 +146,9 @@ def simulate(design: Design, request: SimulationRequest, *, json_path: str | Pat
     if request.model == "rom":
         from pnmold.physics.characterise import characterised_for
 
+        layer = dict(request.effects).get("layer_compliance", 0) > 0
         doc = simulate_rom(design, request, characterised_for(design, [request.kind], [request.orientation],
-                                                              size=_mesh_size(request, None, rom=True),
+                                                              layer=layer, size=_mesh_size(request, None, rom=True),
                                                               progress=progress))
     else:
         doc = simulate_fe(design, request, vtu_dir=vtu_dir)
@@ -248,6 +249,7 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
         from pnmold.physics.characterise import characterised_for
 
         characterisation = characterised_for(design, [request.kind], [request.orientation],
+                                             layer=dict(request.effects).get("layer_compliance", 0) > 0,
                                              size=_mesh_size(request, rom=True))
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
