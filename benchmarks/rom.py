@@ -29,7 +29,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.design import list_templates, load_design  # noqa: E402
 from pnmold.physics import Protocol, ReducedModel  # noqa: E402
-from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, characterised_for  # noqa: E402
+from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE  # noqa: E402
+from pnmold.physics.probes import characterised_for  # noqa: E402
 
 
 def cpu_ms(rom, protocol, repeat: int = 30) -> float:

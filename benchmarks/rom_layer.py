@@ -6,7 +6,7 @@ predictions), the FE bends the actuator with that ``layer_compliance`` chambers 
 down (Earth's gravity, the characterisation's mesh) at five pressures up to half the nominal's full-bend
 pressure (or its FE's last step); the reduced model runs the same pressures with the same layer. Prints the
 worst and mean tip miss (% of the length) with the layer's compliance probes
-(:func:`pnmold.physics.characterise.layer_probe`) and without them (the hinge compliance grown by the
+(:func:`pnmold.physics.probes.layer_probe`) and without them (the hinge compliance grown by the
 bend's factor alone), and the rest tip of each.
 
     .venv/bin/python benchmarks/rom_layer.py [TEMPLATE...] [--values 0.5,0.95] [--write-test-data]
@@ -32,7 +32,7 @@ from rom_scale import add_test_steps, fe_steps  # noqa: E402
 
 from pnmold.design import load_design  # noqa: E402
 from pnmold.physics import Protocol, ReducedModel  # noqa: E402
-from pnmold.physics.characterise import characterised_for  # noqa: E402
+from pnmold.physics.probes import characterised_for  # noqa: E402
 
 ORIENTATIONS = ("chambers_up", "chambers_down")
 SHARE = 0.5

@@ -16,7 +16,7 @@ that is not "one scale for every term" would be); and the unscaled nominal, the 
 ``--write-test-data`` also writes the first template's first batch's FE steps, both orientations, to
 ``tests/data/`` (what ``tests/test_rom.py`` checks the scaled reduced model against, without an FE run).
 Hanging chambers down the reduced model uses the compliance its FE probe identified there
-(:func:`pnmold.physics.characterise.downward_probe`).
+(:func:`pnmold.physics.probes.downward_probe`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,8 @@ sys.path.insert(0, str(ROOT))
 from pnmold.design import load_design  # noqa: E402
 from pnmold.fsutil import write_json  # noqa: E402
 from pnmold.physics import Protocol, ReducedModel  # noqa: E402
-from pnmold.physics.characterise import DEFAULT_SIZE, characterised_for  # noqa: E402
+from pnmold.physics.characterise import DEFAULT_SIZE  # noqa: E402
+from pnmold.physics.probes import characterised_for  # noqa: E402
 
 BATCHES = ((0.9, 1.03), (1.1, 0.97))
 ORIENTATIONS = ("chambers_up", "chambers_down")

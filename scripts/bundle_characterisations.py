@@ -28,6 +28,7 @@ from pnmold.design import list_templates, load_design  # noqa: E402
 from pnmold.fsutil import write_text  # noqa: E402
 
 ch = importlib.import_module("pnmold.physics.characterise")  # the module (the package exports the function)
+from pnmold.physics.probes import characterised_for  # noqa: E402
 
 
 def rounded(value, digits: int = 6):
@@ -49,7 +50,7 @@ def main(names: list[str]) -> None:
         with tempfile.TemporaryDirectory() as tmp:
             os.environ["PNMOLD_CACHE"] = tmp
             ch.BUNDLED_DIR = bundled if probes_only else Path(tmp) / "none"  # afresh: not from the files written
-            result = ch.characterised_for(design, ["force"], ["chambers_up", "chambers_down"], layer=True,
+            result = characterised_for(design, ["force"], ["chambers_up", "chambers_down"], layer=True,
                                           progress=lambda stage: print(f"  {stage}", flush=True))
         doc = rounded(result.to_json())
         name_on_disk = ch.cache_path(design, ch.DEFAULT_SIZE, ch.DEFAULT_MAX_PRESSURE_KPA).name

@@ -25,7 +25,8 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     JSON and the report folder. ``uncertain``: design dimension -> its standard uncertainty in mm (a
     design read off a drawing): each costs a free FE run once, and what it changes becomes a floor under
     the noise (:mod:`pnmold.physics.uncertainty`)."""
-    from pnmold.physics.characterise import characterised_for, uncertainty_runs
+    from pnmold.physics.characterise import uncertainty_runs
+    from pnmold.physics.probes import characterised_for
     from pnmold.physics.uncertainty import DesignFloor, check_uncertain
 
     from .output import write_json_doc, write_report

@@ -2,7 +2,8 @@
 
 - :mod:`.characterise` -- the FE runs that characterise a design (cached): :mod:`.characterisation`
   holds the result (free-bending law, hinge compliance, variant runs), :mod:`.identify` the pure
-  identification of the hinges from the FE's shapes.
+  identification of the hinges from the FE's shapes; :mod:`.probes` the on-demand probes a use
+  needs (a blocked tip, a hanging weight, a compliant layer under the weight).
 - :mod:`.rom` -- :class:`ReducedModel`: a planar rod of the bottom face carrying that law with
   gravity, a blocking plane, and the catalogued effects; a curve in milliseconds
   (docs/reduced-model.md). :mod:`.rom_law` reads the FE's free law at any pressure,

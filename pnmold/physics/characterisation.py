@@ -33,7 +33,7 @@ class Characterisation:
     ``rod_length_mm`` (S, K) each edge's free angle and length, ``compliance_rad_per_n_mm``
     (S, K) the hinge compliance at each edge's proximal node (identified chambers up: a weight that
     closes the bend); ``compliance_down_rad_per_n_mm`` (S, K) the same identified chambers down (a
-    weight that opens it; :func:`pnmold.physics.characterise.downward_probe`), None until asked for.
+    weight that opens it; :func:`pnmold.physics.probes.downward_probe`), None until asked for.
     """
 
     pressure_kpa: np.ndarray
@@ -60,13 +60,13 @@ class Characterisation:
     #: {"pressure_kpa", "force_n", "seconds"} (:func:`pnmold.physics.characterise.blocked_force_probe`), or None
     blocked: dict | None = None
     #: the hinges' compliance under a weight that opens the bend (chambers down), from an FE probe at
-    #: ``probe_down_gravity_g`` (:func:`pnmold.physics.characterise.downward_probe`), and that probe's curves
+    #: ``probe_down_gravity_g`` (:func:`pnmold.physics.probes.downward_probe`), and that probe's curves
     compliance_down_rad_per_n_mm: np.ndarray | None = None
     probe_down_gravity_g: float = 0.0
     probe_down: dict | None = None
     #: the chambers-up and chambers-down compliances with the strain-limiting layer made compliant by
     #: ``probe_layer_mm_per_n`` (the ``layer_compliance`` effect), from a free run and probes with it
-    #: (:func:`pnmold.physics.characterise.layer_probe`); None until asked for
+    #: (:func:`pnmold.physics.probes.layer_probe`); None until asked for
     compliance_layer_rad_per_n_mm: np.ndarray | None = None
     compliance_down_layer_rad_per_n_mm: np.ndarray | None = None
     probe_layer_mm_per_n: float = 0.0

@@ -29,23 +29,28 @@ the fPN), while the test against 1 g stays a prediction, not a fit.
    concealed FE data and the model that diagnoses them leave the same fingerprint; the
    analytic forms stand in only for a characterisation without variants.
 
-4. **down** (on demand, for a recording or simulation hanging chambers down) -- the free run's pressures
-   again with Earth's gravity along +z (:data:`DOWN_PROBE_G`): the hinges' compliance under a weight that
-   opens the bend, identified as the probe's is. The two differ hinge by hinge (the fPN's thin inside
-   walls and the slab under its gaps carry an opening moment otherwise than a closing one): with the
-   chambers-up compliance the reduced model missed the fPN's FE hanging chambers down by up to 24 % of
-   its length near its pressure maximum, with this one by under 1 %. At 1 g, the test's own load: an
-   opening compliance from a light probe did not carry to 1 g (it stiffens as the hinges open).
+Items 4 and 6 are run by :mod:`pnmold.physics.probes` (:func:`~pnmold.physics.probes.characterised_for`:
+the probes a use needs).
+
+4. **down** (on demand, for a recording or simulation hanging chambers down) -- the free run's
+   pressures again with Earth's gravity along +z (:data:`pnmold.physics.probes.DOWN_PROBE_G`): the
+   hinges' compliance under a weight that opens the bend, identified as the probe's is. The two differ
+   hinge by hinge (the fPN's thin inside walls and the slab under its gaps carry an opening moment
+   otherwise than a closing one): with the chambers-up compliance the reduced model missed the fPN's
+   FE hanging chambers down by up to 24 % of its length near its pressure maximum, with this one by
+   under 1 %. At 1 g, the test's own load: an opening compliance from a light probe did not carry to
+   1 g (it stiffens as the hinges open).
 5. **blocked** (on demand, for a blocked-force recording or simulation) -- the tip against a rigid
    plane at its rest height, no gravity, at one small pressure (:data:`BLOCKED_PROBE_SHARE` of the
    free run's last): the FE's blocked force to first order, which the reduced model's tip compliance
    is scaled to match (the gravity probe's compliance, identified under a distributed load, gave a
    blocked tip force 1.2x the FE's on the ribbed segment of the README's worked example).
-6. **layer** (on demand, for a diagnosis or a simulation with a compliant layer, chambers up or down) --
-   a free run with the layer made compliant by :data:`LAYER_PROBE_MM_PER_N` and each orientation's
-   gravity probe on top of it: the hinges' compliance when the layer carries the weight's moment
-   (:func:`layer_probe`). A probe that does not serve (e.g. a floppy design that loses stability under
-   its weight before any pressure) is noted with why (``probes_failed``) and not tried again.
+6. **layer** (on demand, for a diagnosis or a simulation with a compliant layer, chambers up or down)
+   -- a free run with the layer made compliant by :data:`pnmold.physics.probes.LAYER_PROBE_MM_PER_N`
+   and each orientation's gravity probe on top of it: the hinges' compliance when the layer carries
+   the weight's moment (:func:`pnmold.physics.probes.layer_probe`). A probe that does not serve (e.g.
+   a floppy design that loses stability under its weight before any pressure) is noted with why
+   (``probes_failed``) and not tried again.
 
 Results are cached as JSON in the user's cache directory (:func:`cache_dir`; ``PNMOLD_CACHE``
 overrides the folder), keyed by the design digest, the mesh size and the pressure limit. A
@@ -80,13 +85,6 @@ from pnmold.tetmesh import MeshSize
 log = logging.getLogger(__name__)
 
 PROBE_G = 0.35
-#: the downward probe's gravity (g, along +z): a chambers-down test's own load
-DOWN_PROBE_G = 1.0
-#: the layer compliance (mm/N) of the layer's compliance probes (:func:`layer_probe`): the hinges' compliance
-#: under a weight grows with the share of the bottom's stretching stiffness the layer loses, nearly in
-#: proportion (the fPN's FE rest sag hanging chambers down at 1 g grew 4.0, 8.5 and 11.0 mm for 0.15, 0.5 and
-#: 0.95 mm/N, shares 0.165, 0.40, 0.56); a value inside what the blind benchmark draws (as :data:`VARIANTS`'s)
-LAYER_PROBE_MM_PER_N = 0.15
 #: the characterisation's mesh: the full-bend pressure within 2 % of the build's 2.5/5 mm mesh
 DEFAULT_SIZE = MeshSize(3.5, 7.0)
 DEFAULT_MAX_PRESSURE_KPA = 150.0
@@ -200,130 +198,6 @@ def blocked_force_probe(design: Design, *, size: MeshSize | None = None,
     result = replace(result, blocked=_blocked_tip(design, p, size))
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
-
-
-def characterised_for(design: Design, kinds: Sequence[str], orientations: Sequence[str], *, layer: bool = False,
-                      size: MeshSize | None = None, max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
-                      progress: Callable[[str], None] | None = None) -> Characterisation:
-    """The characterisation with the probes a use of it needs: the blocked tip for a blocked force
-    (:func:`blocked_force_probe`), the opening compliance for a test hanging chambers down
-    (:func:`downward_probe`), with ``layer`` (a compliant layer to be modelled) the compliance with it under
-    the orientations' weights (:func:`layer_probe`); each FE once, cached."""
-    kw = {"size": size, "max_pressure_kpa": max_pressure_kpa, "progress": progress}
-    result = characterise(design, **kw)
-    if "force" in kinds:
-        result = blocked_force_probe(design, **kw)
-    if "chambers_down" in orientations:
-        result = downward_probe(design, **kw)
-    if layer and {"chambers_up", "chambers_down"} & set(orientations):
-        result = layer_probe(design, orientations, **kw)
-    return result
-
-
-def downward_probe(design: Design, *, size: MeshSize | None = None,
-                   max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
-                   progress: Callable[[str], None] | None = None) -> Characterisation:
-    """The characterisation with the hinges' compliance under a weight that opens the bend
-    (``compliance_down_rad_per_n_mm``): the free run's pressures again hanging chambers down at
-    :data:`DOWN_PROBE_G` (FE, a minute or two), identified as the chambers-up probe's is. Once, cached; a
-    design the probe does not fit (its mesh's bottom line is not the free run's) keeps the chambers-up one."""
-    from pnmold.design_fe import run_fe
-
-    size = replace(size or DEFAULT_SIZE, half=True)
-    result = characterise(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
-    if (result.compliance_down_rad_per_n_mm is not None or "down" in result.probes_failed or result.source != "fe"
-            or not result.has_rod):
-        return result
-    (progress or (lambda stage: None))(f"{design.name}: compliance probe (FE, {DOWN_PROBE_G:g} g chambers down)")
-    t0 = time.perf_counter()
-    run = run_fe(design, orientation="chambers_down", effects={"gravity": DOWN_PROBE_G},
-                 pressures_kpa=[float(p) for p in result.pressure_kpa[1:]], size=size, keep_partial=True)
-    compliance = _probe_compliance(design, result, run, result.rod_angle_rad, -DOWN_PROBE_G)
-    if isinstance(compliance, str):
-        return _failed(design, result, "down", compliance, size, max_pressure_kpa)
-    doc = {k: [float(s.as_dict()[k]) for s in run.solution.steps] for k in CURVES}
-    result = replace(result, compliance_down_rad_per_n_mm=compliance, probe_down_gravity_g=DOWN_PROBE_G,
-                     probe_down=doc, timings_s={**result.timings_s, "probe_down": round(time.perf_counter() - t0, 2)})
-    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
-    return result
-
-
-def layer_probe(design: Design, orientations: Sequence[str], *, size: MeshSize | None = None,
-                max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
-                progress: Callable[[str], None] | None = None) -> Characterisation:
-    """The characterisation with the hinges' compliance when the strain-limiting layer is made compliant by
-    :data:`LAYER_PROBE_MM_PER_N` (the ``layer_compliance`` effect), for the weights of ``orientations``:
-    chambers up (``compliance_layer_rad_per_n_mm``, at :data:`PROBE_G` as the chambers-up probe) and chambers
-    down (``compliance_down_layer_rad_per_n_mm``, at :data:`DOWN_PROBE_G`). A free run with the layer (its
-    shape, which the probes' extra rotations are measured from) and a probe per orientation: FE, a minute
-    or three, once, cached."""
-    from pnmold.design_fe import run_fe
-
-    size = replace(size or DEFAULT_SIZE, half=True)
-    kw = {"size": size, "max_pressure_kpa": max_pressure_kpa, "progress": progress}
-    down = "chambers_down" in orientations
-    result = downward_probe(design, **kw) if down else characterise(design, **kw)
-    wanted = {o: g for o, g, have in (("chambers_up", PROBE_G, result.compliance_layer_rad_per_n_mm),
-                                      ("chambers_down", -DOWN_PROBE_G, result.compliance_down_layer_rad_per_n_mm))
-              if o in orientations and have is None and f"layer {o}" not in result.probes_failed}
-    if not wanted or result.source != "fe" or not result.has_rod:
-        return result
-    c, say = LAYER_PROBE_MM_PER_N, progress or (lambda stage: None)
-    say(f"{design.name}: compliance probes with layer_compliance = {c:g} mm/N (FE: free, "
-        f"{', '.join(wanted).replace('_', ' ')})")
-    t0 = time.perf_counter()
-    pressures = [float(p) for p in result.pressure_kpa[1:]]
-    free = run_fe(design, orientation=NO_GRAVITY, effects={"layer_compliance": c}, pressures_kpa=pressures,
-                  size=size, keep_partial=True)
-    if len(free.solution.steps) < 2:
-        return _failed(design, result, [f"layer {o}" for o in wanted], free.solution.reason or "no step",
-                       size, max_pressure_kpa)
-    _, free_angle, _ = bottom_line(free.mesh.nodes_mm, free.solution.shapes_mm)
-    rows = len(result.pressure_kpa)  # the layer's free angles, its last repeated past its end
-    free_angle = np.vstack([free_angle, np.repeat(free_angle[-1:], max(rows - len(free_angle), 0), axis=0)])[:rows]
-    found = {}
-    for orientation, g in wanted.items():
-        probe = run_fe(design, orientation=orientation, effects={"gravity": abs(g), "layer_compliance": c},
-                       pressures_kpa=pressures, size=size, mesh_of=free, keep_partial=True)
-        found[orientation] = _probe_compliance(design, result, probe, free_angle, g, len(free.solution.steps))
-    failed = {f"layer {o}": why for o, why in found.items() if isinstance(why, str)}
-    found = {o: v for o, v in found.items() if not isinstance(v, str)}
-    up = found.get("chambers_up", result.compliance_layer_rad_per_n_mm)
-    down = found.get("chambers_down", result.compliance_down_layer_rad_per_n_mm)
-    result = replace(result, compliance_layer_rad_per_n_mm=up, compliance_down_layer_rad_per_n_mm=down,
-                     probe_layer_mm_per_n=c, probes_failed={**result.probes_failed, **failed},
-                     timings_s={**result.timings_s, "probe_layer": round(time.perf_counter() - t0, 2)})
-    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
-    return result
-
-
-def _failed(design: Design, result: Characterisation, probes: str | list[str], why: str, size: MeshSize,
-            max_pressure_kpa: float) -> Characterisation:
-    """``result`` with ``probes`` noted as tried and why they did not serve (cached: not tried again)."""
-    names = [probes] if isinstance(probes, str) else probes
-    result = replace(result, probes_failed={**result.probes_failed, **dict.fromkeys(names, why)})
-    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
-    return result
-
-
-def _probe_compliance(design: Design, result: Characterisation, run, free_angle: np.ndarray, probe_g: float,
-                      rows: int | None = None) -> np.ndarray | str:
-    """The hinge compliance (S, K) identified from a gravity probe ``run`` (``probe_g`` along -z) over the
-    free rod's ``free_angle`` (the probe's first ``rows`` rows at most), or why the probe does not serve
-    (said in the log)."""
-    probe = run.solution
-    why = None
-    if len(probe.steps) < 2:
-        why = f"{probe.reason}"
-    else:
-        x, angle, length = bottom_line(run.mesh.nodes_mm, probe.shapes_mm)
-        if x.shape != result.rod_x_mm.shape or not np.allclose(x, result.rod_x_mm):
-            why = "its mesh's bottom line is not the free run's"
-    if why is not None:
-        log.warning("compliance probe of %s not used: %s", design.name, why)
-        return why
-    n = min(len(result.pressure_kpa), rows or len(angle))
-    return identify_compliance(design, x, free_angle, angle[:n], length[:n], probe_g)
 
 
 def _blocked_tip(design: Design, pressure_kpa: float, size: MeshSize) -> dict[str, float]:

@@ -144,7 +144,7 @@ def simulate(design: Design, request: SimulationRequest, *, json_path: str | Pat
     if vtu_dir is not None and request.model != "fe":
         raise UsageError("--vtu: only the FE model (--model fe) has fields to write")
     if request.model == "rom":
-        from pnmold.physics.characterise import characterised_for
+        from pnmold.physics.probes import characterised_for
 
         layer = dict(request.effects).get("layer_compliance", 0) > 0
         doc = simulate_rom(design, request, characterised_for(design, [request.kind], [request.orientation],
@@ -246,7 +246,7 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 
     effects = check_effects(dict(request.effects), model="rom")
     if characterisation is None:
-        from pnmold.physics.characterise import characterised_for
+        from pnmold.physics.probes import characterised_for
 
         characterisation = characterised_for(design, [request.kind], [request.orientation],
                                              layer=dict(request.effects).get("layer_compliance", 0) > 0,
