@@ -55,6 +55,14 @@ def test_invalid_design_exits_2_naming_the_field(override, field, tmp_path, caps
     assert not out.exists()
 
 
+def test_a_users_text_is_printed_as_written_not_as_an_emoji(capsys):
+    """Rich reads ``:b:`` as an emoji code; a design named ``nosuch:b:step`` (or a mix ratio, a path with
+    colons) must come back in the error as the user wrote it."""
+    assert main(["simulate", "nosuch:b:step"]) == 2
+    err = capsys.readouterr().err
+    assert "'nosuch:b:step'" in err and "\U0001f171" not in err
+
+
 def test_a_failed_build_leaves_the_earlier_build_untouched(tmp_path, monkeypatch):
     out = tmp_path / "fpn"
     assert main(["build", "--out", str(out), "--no-fem", "--quiet"]) == 0

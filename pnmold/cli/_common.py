@@ -12,8 +12,8 @@ from typing import Any
 from rich.console import Console
 from rich.markup import escape
 
-err_console = Console(stderr=True, highlight=False, soft_wrap=True)
-out_console = Console(highlight=False, soft_wrap=True)
+err_console = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)  # a user's "A:B:C" stays text
+out_console = Console(highlight=False, soft_wrap=True, emoji=False)
 
 
 def output_flags(default=argparse.SUPPRESS) -> argparse.ArgumentParser:
