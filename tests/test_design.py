@@ -157,6 +157,25 @@ def test_a_rubber_of_ones_own_needs_every_constant_and_keeps_them(tmp_path):
     assert load_design(path) == d  # a resolved design.toml reads back as it was
 
 
+def test_overrides_do_not_depend_on_their_order():
+    """A rubber's constants set before its name belong to it as much as those set after (they once
+    reloaded the library's silently); a key set twice to different values is refused as ambiguous."""
+    import itertools
+
+    own = ["material.c10_mpa=0.05", "material.name=Labsil 7", "material.c20_mpa=0.001", "material.c30_mpa=0",
+           "material.density_g_per_ml=1.1", "material.mix_ratio_a_to_b=10"]
+    designs = {digest(load_design("fpn", [*order, *own[3:]])) for order in itertools.permutations(own[:3])}
+    assert len(designs) == 1 and load_design("fpn", own).material.c10_mpa == 0.05
+    for order in (["material.c10_mpa=0.2", "material.name=Ecoflex 00-30"],
+                  ["material.name=Ecoflex 00-30", "material.c10_mpa=0.2"]):
+        with pytest.raises(DesignError, match="name of its own") as info:
+            load_design("fpn", order)
+        assert info.value.field == "material.c10_mpa"
+    with pytest.raises(DesignError, match="set twice") as info:
+        load_design("fpn", ["chambers.count=8", "chambers.count=9"])
+    assert info.value.field == "chambers.count"
+
+
 def test_a_rubber_strain_limiting_layer_without_paper():
     d = load_design("fpn", ["paper.present=false", "layer_material.name=Dragon Skin 30"])
     assert not d.paper.present and "paper" not in d.part_names and len(d.part_names) == 6

@@ -153,6 +153,20 @@ def parse_override(text: str) -> tuple[str, str, Any]:
     return section, key, value
 
 
+def override_table(overrides: list[str] | tuple[str, ...]) -> dict[str, dict[str, Any]]:
+    """The ``--set`` overrides as one table, applied together so that their order does not matter (a rubber's
+    constants set beside its name belong to it, before or after); a key set twice to different values is
+    refused as ambiguous."""
+    table: dict[str, dict[str, Any]] = {}
+    for text in overrides:
+        section, key, value = parse_override(text)
+        given = table.setdefault(section, {})
+        if key in given and given[key] != value:
+            raise DesignError(f"{section}.{key}", f"set twice by --set ({given[key]!r} and {value!r}): give it once")
+        given[key] = value
+    return table
+
+
 def resolve(ref: str | os.PathLike) -> Path:
     """A template name or a path to a TOML file -> the file."""
     path = Path(ref)
@@ -179,9 +193,8 @@ def load_design(ref: str | os.PathLike = "fpn", overrides: list[str] | tuple[str
     table.setdefault("design", {}).setdefault("name", path.stem)
     origin = f"template {path.stem}" if path.parent == templates_dir() else f"set by the user in {path.name}"
     design = _apply(Design(), table, origin)
-    for text in overrides:
-        section, key, value = parse_override(text)
-        design = _apply(design, {section: {key: value}}, "set by the user (--set)")
+    if overrides:
+        design = _apply(design, override_table(overrides), "set by the user (--set)")
     for section in ("material", "layer_material"):
         design = _with_library_rubber(design, section)
     validate(design)
