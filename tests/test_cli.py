@@ -55,6 +55,35 @@ def test_invalid_design_exits_2_naming_the_field(override, field, tmp_path, caps
     assert not out.exists()
 
 
+def test_ctrl_c_turned_into_another_error_by_a_library_still_exits_130(monkeypatch, capsys):
+    """A worker pool or a solver's C code may catch the interrupt and raise an error of its own; the run
+    still ends as interrupted (130), not as a bug (70). Without an interrupt the same error is a bug."""
+    import os
+    import signal
+    import time
+
+    from pnmold.cli import templates
+
+    def interrupted_then_broken(args):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)
+        except KeyboardInterrupt:
+            raise RuntimeError("the worker pool broke") from None
+        return 0
+
+    monkeypatch.setattr(templates, "run", interrupted_then_broken)
+    assert main(["templates"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+
+    def broken(args):
+        raise RuntimeError("the worker pool broke")
+
+    monkeypatch.setattr(templates, "run", broken)
+    assert main(["templates"]) == 70
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handler is put back
+
+
 def test_a_users_text_is_printed_as_written_not_as_an_emoji(capsys):
     """Rich reads ``:b:`` as an emoji code; a design named ``nosuch:b:step`` (or a mix ratio, a path with
     colons) must come back in the error as the user wrote it."""

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
+import signal
 import sys
+import threading
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from rich.markup import escape
 
@@ -49,6 +52,26 @@ def make_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@contextlib.contextmanager
+def _noting_interrupts() -> Iterator[list[bool]]:
+    """Ctrl-C noted as it arrives (and raised as usual): a library that turns the interrupt into an error
+    of its own (a worker pool, a solver's C code) still ends the run as interrupted, not as a bug."""
+    noted: list[bool] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield noted
+        return
+
+    def on_sigint(signum, frame):
+        noted.append(True)
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield noted
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = make_parser()
     try:
@@ -57,21 +80,34 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    try:
-        with stdout_for_json(args):  # --json -: standard output carries the JSON only
-            return args.handler(args)
-    except PnmoldError as err:
-        err_console.print(f"[red]error[/red] ({type(err).__name__}): {escape(str(err))}")
-        return err.exit_code
-    except KeyboardInterrupt:
-        err_console.print("interrupted")
-        return EXIT_INTERRUPTED
-    except Exception as err:  # a bug, not the user's doing: one line, the traceback with -v
-        if args.verbose:
-            err_console.print(escape(traceback.format_exc()))
-        err_console.print(f"[red]unexpected error[/red] ({type(err).__name__}): {escape(str(err))}"
-                          + ("" if args.verbose else " (run with -v for the traceback)"))
-        return EXIT_UNEXPECTED
+    with _noting_interrupts() as interrupted:
+        try:
+            with stdout_for_json(args):  # --json -: standard output carries the JSON only
+                return args.handler(args)
+        except PnmoldError as err:
+            if interrupted:
+                return _interrupted()
+            err_console.print(f"[red]error[/red] ({type(err).__name__}): {escape(str(err))}")
+            return err.exit_code
+        except KeyboardInterrupt:
+            return _interrupted()
+        except Exception as err:  # a bug, not the user's doing: one line, the traceback with -v
+            if interrupted:
+                return _interrupted()
+            return _unexpected(err, args.verbose)
+
+
+def _interrupted() -> int:
+    err_console.print("interrupted")
+    return EXIT_INTERRUPTED
+
+
+def _unexpected(err: Exception, verbose: bool) -> int:
+    if verbose:
+        err_console.print(escape(traceback.format_exc()))
+    err_console.print(f"[red]unexpected error[/red] ({type(err).__name__}): {escape(str(err))}"
+                      + ("" if verbose else " (run with -v for the traceback)"))
+    return EXIT_UNEXPECTED
 
 
 if __name__ == "__main__":
