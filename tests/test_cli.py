@@ -64,6 +64,8 @@ def test_ctrl_c_turned_into_another_error_by_a_library_still_exits_130(monkeypat
 
     from pnmold.cli import templates
 
+    before = signal.getsignal(signal.SIGINT)
+
     def interrupted_then_broken(args):
         try:
             os.kill(os.getpid(), signal.SIGINT)
@@ -81,7 +83,7 @@ def test_ctrl_c_turned_into_another_error_by_a_library_still_exits_130(monkeypat
 
     monkeypatch.setattr(templates, "run", broken)
     assert main(["templates"]) == 70
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handler is put back
+    assert signal.getsignal(signal.SIGINT) is before  # the handler is put back as it was
 
 
 def test_a_users_text_is_printed_as_written_not_as_an_emoji(capsys):
