@@ -50,7 +50,7 @@ from pnmold.physics.rod import RodLoads, RodState, solve_rod
 from pnmold.physics.rom_effects import (
     contact_onset,
     gravity_xz,
-    layer_share,
+    layer_compliance,
     layer_softening,
     self_contact,
     stiffening,
@@ -239,15 +239,7 @@ class ReducedModel:
         angle = interp(t.p, t.angle, law.p_bend)
         length = interp(t.p, t.length, law.p_bend) * np.where(self.free_edge, law.stretch[:, None], 1.0)
         down = opens_the_bend(orientation) and t.compliance_down is not None
-        compliance = t.compliance_down if down else t.compliance
-        soft = law.soft
-        layer, probed = v("layer_compliance"), t.compliance_down_layer if down else t.compliance_layer
-        if layer > 0 and probed is not None:
-            # the FE's probe of the orientation's weight with a compliant layer, in proportion to the share of
-            # the bottom's stiffness lost (instead of the bend's factor): the layer carries the weight's moment
-            w = layer_share(self.design, layer) / layer_share(self.design, t.layer_mm_per_n)
-            compliance = compliance + w * (probed - compliance)
-            soft = np.ones_like(soft)
+        compliance, soft = layer_compliance(self.design, t, down, v("layer_compliance"), law.soft)
         comp = interp(t.p, compliance, law.p_bend, extrapolate=False) * (soft / (law.stiff * law.ratio))[:, None]
         if kind == "force":
             comp = comp * self.blocked_compliance

@@ -61,6 +61,21 @@ def layer_share(design: Design, compliance_mm_per_n: float) -> float:
     return rubber / (1.0 / (1.0 / paper + compliance_mm_per_n) + rubber) - rubber / (paper + rubber)
 
 
+def layer_compliance(design: Design, tables: Tables, down: bool, compliance_mm_per_n: float, soft: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The hinges' compliance table under the weight (the chambers-down one when ``down``) and the factor
+    it is read with. With a compliant layer and the FE's probe of that orientation with one
+    (:func:`pnmold.physics.probes.layer_probe`): the probe's compliance, in proportion to the share of the
+    bottom's stiffness lost, read as it is (the layer carries the weight's moment); else the table, grown
+    by the bend's factor ``soft``."""
+    compliance = tables.compliance_down if down else tables.compliance
+    probed = tables.compliance_down_layer if down else tables.compliance_layer
+    if compliance_mm_per_n <= 0 or probed is None:
+        return compliance, soft
+    w = layer_share(design, compliance_mm_per_n) / layer_share(design, tables.layer_mm_per_n)
+    return compliance + w * (probed - compliance), np.ones_like(soft)
+
+
 def layer_softening(design: Design, tables: Tables, response: Mapping[str, Response] | None,
                     compliance_mm_per_n: float, p_eff: Mapping[str, np.ndarray]
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
