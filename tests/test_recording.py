@@ -99,6 +99,74 @@ def test_missing_file(tmp_path):
         read_recording(tmp_path / "nope.csv")
 
 
+# -- layouts: what a spreadsheet saves reads to the same numbers (pnmold.recording.csvlayout) --------
+
+def _table(text: str, delimiter: str, decimal: str = ".") -> str:
+    """``text`` (a comma-separated recording) with another delimiter and decimal mark in its table."""
+    return "".join(line if line.startswith("#") else line.replace(",", delimiter).replace(".", decimal)
+                   for line in text.splitlines(keepends=True))
+
+
+LAYOUTS = {  # the file's text, the layout pnmold reports
+    "semicolon-decimal-comma": (_table(GOOD, ";", ","), "semicolon-separated, decimal comma"),
+    "semicolon-decimal-point": (_table(GOOD, ";"), "semicolon-separated"),
+    "tab": (_table(GOOD, "\t"), "tab-separated"),
+    "tab-decimal-comma": (_table(GOOD, "\t", ","), "tab-separated, decimal comma"),
+    "utf8-bom": ("\ufeff" + GOOD, "comma-separated"),
+    "spreadsheet": ("\ufeff" + "".join(line + ";;;;;\r\n" if line.startswith("#") else line + "\r\n"
+                                       for line in _table(GOOD, ";", ",").splitlines()),
+                    "semicolon-separated, decimal comma"),
+}
+
+
+@pytest.mark.parametrize("layout", list(LAYOUTS), ids=list(LAYOUTS))
+def test_a_spreadsheets_layout_reads_to_the_same_numbers(layout, tmp_path):
+    comma, other = tmp_path / "comma.csv", tmp_path / f"{layout}.csv"
+    comma.write_text(GOOD, encoding="utf-8")
+    text, found = LAYOUTS[layout]
+    other.write_bytes(text.encode("utf-8"))
+    assert other.read_bytes() != comma.read_bytes()
+    a, b = read_recording(comma), read_recording(other)
+    assert b.layout == found and a.layout == "comma-separated"
+    assert (b.kind, b.metadata) == (a.kind, a.metadata)
+    assert set(b.columns) == set(a.columns)
+    for name, values in a.columns.items():
+        assert b[name].tolist() == values.tolist(), name
+
+
+def test_a_decimal_comma_ramp_rate_in_a_semicolon_file(tmp_path):
+    path = tmp_path / "ramp.csv"
+    path.write_text("# kind: pv\n# rate_kpa_per_s: 2,5\nvolume_ml;pressure_kpa\n0;0\n1,5;2,25\n")
+    rec = read_recording(path)
+    assert rec.rate_kpa_per_s == 2.5 and rec["volume_ml"].tolist() == [0.0, 1.5]
+
+
+MISREAD = {  # text, line, column, words: a decimal comma where the comma separates cells, and mixed rows
+    "quoted-decimal-comma": ('# kind: force\npressure_kpa,force_n\n1,2\n"1,5",4\n', 4, "1 (pressure_kpa)",
+                             "not a number: '1,5' (read as comma-separated: 1,5 looks like a decimal comma; "
+                             "save with ';' as the separator or a decimal point)"),
+    "decimal-comma-splits-numbers": ("# kind: force\npressure_kpa,force_n\n1,5,2,5\n3,5,4,5\n", 3, 3,
+                                     "4 fields, the header has 2 (read as comma-separated: if the numbers have "
+                                     "decimal commas, as in 1,5, save with ';' as the separator"),
+    "one-decimal-mark": ("# kind: force\npressure_kpa;force_n\n1;2\n1,5;4\n" + "2.5;3\n" * 20, 4,
+                         "1 (pressure_kpa)", "1,5 looks like a decimal comma, but the file's last rows have "
+                         "decimal points"),
+    "one-row-not-semicolons": ("# kind: force\npressure_kpa;force_n\n1;2\n3,4\n", 2, "pressure_kpa",
+                               "(read as comma-separated: this row has semicolons)"),
+}
+
+
+@pytest.mark.parametrize("name", list(MISREAD), ids=list(MISREAD))
+def test_a_misread_layout_is_refused_saying_the_layout(name, tmp_path):
+    text, line, column, words = MISREAD[name]
+    path = tmp_path / f"{name}.csv"
+    path.write_text(text)
+    with pytest.raises(RecordingError) as info:
+        read_recording(path)
+    assert (info.value.line, info.value.column) == (line, column)
+    assert words in str(info.value)
+
+
 # -- units: converted once at reading, the conversion stated ---------------------------------------
 
 UNIT_CASES = {  # column as written, value, canonical column, value in its unit, factor as stated
@@ -267,3 +335,27 @@ def test_a_psi_recording_diagnoses_like_its_kpa_twin(tmp_path):
     assert b["recordings"][0]["conversions"] == {"pressure_kpa": "from pressure_psi (x 6.894757)"}
     assert b["recordings"][1]["conversions"] == {"volume_ml": "from volume_ul (x 0.001)",
                                                  "pressure_kpa": "from pressure_psi (x 6.894757)"}
+
+
+@pytest.mark.parametrize("pressures, refused, words", [
+    ("10,10,10", True, "one pressure"),
+    ("-5,-10,-20", True, "at or below 0 kPa"),
+    ("0,-3,10,20", False, "below -1 kPa"),
+    ("0,-0.4,10,20", None, ""),
+])
+def test_doubtful_pressures_are_refused_or_warned_with_the_reason(tmp_path, pressures, refused, words):
+    from pnmold.recording.sanity import check_usable, doubts
+
+    rows = "".join(f"{p},{100 - i},{-i}\n" for i, p in enumerate(pressures.split(",")))
+    path = tmp_path / "r.csv"
+    path.write_text("pressure_kpa,tip_x_mm,tip_z_mm\n" + rows)
+    rec = read_recording(path)
+    if refused is None:
+        assert doubts(rec) == [] and check_usable(rec) == []
+    elif refused:
+        with pytest.raises(RecordingError, match=words) as err:
+            check_usable(rec)
+        assert str(path) in str(err.value) and "pressure_kpa" in str(err.value)
+    else:
+        warned = check_usable(rec)
+        assert len(warned) == 1 and words in warned[0].message and not warned[0].refuse

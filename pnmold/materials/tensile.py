@@ -1,9 +1,10 @@
 """Read a uniaxial tensile (or compression) test: pnmold's CSV or a lab's file as published.
 
-The layout is found, not assumed: the delimiter (``,``, ``;`` or tab; with ``;`` or tab a
-decimal comma is read too), ``#`` comment lines or a block of ``key;value`` metadata rows
-before the header, the header row (the row above the first row of numbers, or two rows
-above it when that row holds only units, as some testing software writes them). Columns are
+The layout is found, not assumed: the delimiter and decimal mark by
+:mod:`pnmold.recording.csvlayout`, the reader recordings use (``,``, ``;`` or tab; with ``;`` or
+tab a decimal comma is read too), ``#`` comment lines or a block of ``key;value`` metadata rows
+before the header, the header row (the row above the first row of numbers, or two rows above it
+when that row holds only units, as some testing software writes them). Columns are
 found by name (:mod:`pnmold.materials.columns`: ``eng_strain``, ``Engineering Strain``,
 ``Engineering Stress (MPa)``, ``True Stress (MPa)``, ``Load (N)``, ``Extension (mm)``, ...)
 or named by :class:`TensileColumns`; units come from the header.
@@ -14,15 +15,14 @@ Stress is engineering (nominal) stress in MPa. A true stress column is converted
 ``strain = extension / gauge length`` and ``stress = force / area`` with the specimen's size
 from :class:`Specimen`, else from the file's metadata rows (``Specimen Length (mm)``,
 ``Specimen Width (mm)``, ``Specimen Thickness (mm)``, ``Specimen Cross-section (cm^2)``).
-What was read, and how, is in :attr:`TensileData.read`.
+What was read, and how, is in :attr:`TensileData.read`. A strain column read as a ratio whose
+values say percent (past :data:`MAX_RATIO_STRAIN`) is refused, naming ``--strain-unit %``.
 """
 
 from __future__ import annotations
 
-import csv
 import logging
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,10 +30,16 @@ import numpy as np
 
 from pnmold.errors import RecordingError, UsageError
 from pnmold.materials.columns import DIMENSION, UNITS, factor, is_unit, normal_unit, role_of, split_name
-from pnmold.recording import finite_number
+from pnmold.recording.csvlayout import DELIMITERS, Layout, decode, find_layout
 
 #: the fewest points a fit takes (and a tensile file must hold)
 MIN_POINTS = 4
+#: the largest engineering strain a strain column read as a ratio may reach: 20 (2000 %). Assumed, from
+#: twice the elongation at break of the stretchiest rubber in pnmold's library (Ecoflex 00-30: 900 %,
+#: Smooth-On's Ecoflex Series technical bulletin) and above the longest test pnmold ships (the Soft
+#: Robotics Materials Database's Ecoflex 00-30, pulled to 1607 %). Past it the column is percent.
+MAX_RATIO_STRAIN = 20.0
+_LARGEST_TRUE = 700.0  # exp(700) is near the largest float: past it, a true strain stays finite (no overflow)
 log = logging.getLogger(__name__)
 _EXPECTED = "eng_strain and eng_stress_mpa (or e.g. 'Engineering Strain', 'Engineering Stress (MPa)')"
 
@@ -94,56 +100,37 @@ class _Column:
 
 def _text(path: str) -> str:
     try:
-        return Path(path).read_bytes().decode("utf-8-sig")
+        raw = Path(path).read_bytes()
     except FileNotFoundError:
         raise UsageError(f"{path}: no such tensile test file") from None
     except IsADirectoryError:
         raise UsageError(f"{path}: is a folder, not a tensile test file") from None
-    except UnicodeDecodeError as err:
-        raise RecordingError(path, None, f"not UTF-8 text ({err.reason})") from None
+    return decode(raw, path)
 
 
-def _delimiter(lines: list[str]) -> str:
-    """``;`` or tab when every one of the last (data) lines has it, else ``,``."""
-    tail = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")][-20:]
-    for d in (";", "\t"):
-        if tail and all(d in ln for ln in tail):
-            return d
-    return ","
-
-
-def _is_number(text: str, comma: bool) -> bool:
-    try:
-        float(text.replace(",", ".") if comma else text)
-    except ValueError:
-        return False
-    return True
-
-
-def _numeric(cells: list[str], comma: bool) -> bool:
+def _numeric(cells: list[str], layout: Layout) -> bool:
     """A row of data: at least two numbers, and numbers in at least half of its filled cells."""
     filled = [c.strip() for c in cells if c.strip()]
-    numbers = sum(_is_number(c, comma) for c in filled)
+    numbers = sum(layout.is_number(c) for c in filled)
     return numbers >= 2 and 2 * numbers >= len(filled)
 
 
-def _rows(text: str, path: str) -> tuple[list[tuple[int, list[str]]], str, bool]:
-    """The non-blank rows (line, cells) after any leading ``#`` comments; delimiter; decimal comma."""
+def _rows(text: str) -> tuple[list[tuple[int, list[str]]], Layout]:
+    """The non-blank rows (line, cells) after any leading ``#`` comments, and the layout."""
     lines = text.splitlines()
-    d = _delimiter(lines)
-    comma = d != "," and any(re.search(r"\d,\d", ln) for ln in lines[-20:])
+    layout = find_layout(lines)
     rows, leading = [], True
-    for n, cells in enumerate(csv.reader(lines, delimiter=d), start=1):
+    for n, cells in enumerate(layout.split(lines), start=1):
         if not cells or not "".join(cells).strip():
             continue
         if leading and cells[0].lstrip().startswith("#"):
             continue
         leading = False
         rows.append((n, cells))
-    return rows, d, comma
+    return rows, layout
 
 
-def _header(rows: list[tuple[int, list[str]]], path: str, n_lines: int, comma: bool) -> tuple[int, int | None]:
+def _header(rows: list[tuple[int, list[str]]], path: str, n_lines: int, layout: Layout) -> tuple[int, int | None]:
     """Index in ``rows`` of the header row and of a units row under it (or None): the header is
     the row above the first row of numbers that another row with numbers follows."""
     if not rows:
@@ -151,8 +138,8 @@ def _header(rows: list[tuple[int, list[str]]], path: str, n_lines: int, comma: b
             raise RecordingError(path, 1, f"empty file; expected a header row with {_EXPECTED}")
         raise RecordingError(path, n_lines, f"no header row after the comment lines; expected {_EXPECTED}")
     def starts_data(i: int) -> bool:  # a row of numbers with a number in the next row (not a metadata row)
-        return _numeric(rows[i][1], comma) and (i + 1 == len(rows) or any(
-            _is_number(c.strip(), comma) for c in rows[i + 1][1] if c.strip()))
+        return _numeric(rows[i][1], layout) and (i + 1 == len(rows) or any(
+            layout.is_number(c.strip()) for c in rows[i + 1][1] if c.strip()))
 
     first = next((i for i in range(len(rows)) if starts_data(i)), None)
     if first == 0:
@@ -240,15 +227,15 @@ _SIZES = {**dict.fromkeys(("specimenlength", "gaugelength", "length", "initialle
           **dict.fromkeys(("specimencrosssection", "crosssection", "crosssectionalarea", "area"), ("area_mm2", "area"))}
 
 
-def _sizes(rows: list[tuple[int, list[str]]], comma: bool) -> dict[str, tuple[float, str]]:
+def _sizes(rows: list[tuple[int, list[str]]], layout: Layout) -> dict[str, tuple[float, str]]:
     """Specimen sizes in the metadata rows above the header: field -> (value, where it was)."""
     found = {}
     for line, cells in rows:
         name, unit = split_name(cells[0])
         target = _SIZES.get(name)
         values = [c.strip() for c in cells[1:] if c.strip()]
-        if target and unit in UNITS[target[1]] and values and _is_number(values[0], comma):
-            value = float(values[0].replace(",", ".") if comma else values[0]) * UNITS[target[1]][unit]
+        if target and unit in UNITS[target[1]] and values and layout.is_number(values[0]):
+            value = float(layout.plain(values[0])) * UNITS[target[1]][unit]
             if value > 0 and math.isfinite(value):
                 found[target[0]] = (value, f"line {line} {cells[0].strip()!r}")
     return found
@@ -288,11 +275,11 @@ def read_tensile(path: str | Path, columns: TensileColumns | None = None,
             raise UsageError(f"--{key.replace('_mm2', '-mm2').replace('_mm', '-mm').replace('_', '-')} must be a "
                              f"positive number, got {value}")
     text = _text(path)
-    rows, delimiter, comma = _rows(text, path)
-    h, u = _header(rows, path, len(text.splitlines()) if text.strip() else 0, comma)
+    rows, layout = _rows(text)
+    h, u = _header(rows, path, len(text.splitlines()) if text.strip() else 0, layout)
     header_line, cells = rows[h]
     cols = _columns(cells, rows[u][1] if u is not None else None, chosen, path, header_line)
-    meta = _sizes(rows[:h], comma)
+    meta = _sizes(rows[:h], layout)
     strain_col, stress_col = cols.get("strain") or cols.get("extension"), cols.get("stress") or cols.get("force")
     gauge = _size(given, meta, "gauge_length_mm") if strain_col and strain_col.role == "extension" else None
     area = _size(given, meta, "area_mm2") if stress_col and stress_col.role == "force" else None
@@ -302,12 +289,15 @@ def read_tensile(path: str | Path, columns: TensileColumns | None = None,
     need = max(c.index for c in used)
     strain, stress, modes, where = [], [], [], []
     for line, row in rows[(u if u is not None else h) + 1:]:
-        if len(row) <= need:
-            raise RecordingError(path, line, f"{len(row)} values, the header has {len(cells)}",
+        if len(row) <= need or any(c.strip() for c in row[len(cells):]):
+            why = layout.fields_hint(layout.delimiter.join(row), len(row), len(cells))
+            raise RecordingError(path, line, f"{len(row)} values, the header has {len(cells)}{why}",
                                  column=cells[len(row)].strip() if len(row) < len(cells) else None)
-        e = _number(row, strain_col, comma, path, line)
-        e = math.expm1(e) if strain_col.role == "true_strain" else e / gauge[0] if gauge else e
-        s = _number(row, stress_col, comma, path, line) / (area[0] if area else 1.0)
+        read = _number(row, strain_col, layout, path, line)
+        e = (math.expm1(min(read, _LARGEST_TRUE)) if strain_col.role == "true_strain"
+             else read / gauge[0] if gauge else read)
+        _check_ratio(read, e, strain_col, chosen, path, line)
+        s = _number(row, stress_col, layout, path, line) / (area[0] if area else 1.0)
         kind = row[mode.index].strip().lower() if mode else "tension"
         _check_point(e, kind, mode, strain_col, path, line)
         if stress_col.role == "true_stress":
@@ -319,15 +309,14 @@ def read_tensile(path: str | Path, columns: TensileColumns | None = None,
     if len(strain) < MIN_POINTS:
         raise RecordingError(path, rows[-1][0] if len(rows) > h + 1 else header_line,
                              f"only {len(strain)} data rows; a fit needs at least {MIN_POINTS}")
-    read = _provenance(strain_col, stress_col, gauge, area, header_line, delimiter, comma, u is not None)
+    read = _provenance(strain_col, stress_col, gauge, area, header_line, layout, u is not None)
     log.info("%s: %s", path, "; ".join(f"{k} {v}" for k, v in read.items()))
     return TensileData(np.array(strain), np.array(stress), tuple(modes), path, tuple(where), read)
 
 
-def _number(row: list[str], col: _Column, comma: bool, path: str, line: int) -> float:
+def _number(row: list[str], col: _Column, layout: Layout, path: str, line: int) -> float:
     """A cell in the column's pnmold unit; RecordingError names the file, line and column."""
-    cell = row[col.index].replace(",", ".") if comma else row[col.index]
-    return finite_number(cell, path, line, col.label) * col.factor
+    return layout.number(row[col.index], path, line, col.label) * col.factor
 
 
 def _check_found(cells, strain_col, stress_col, gauge, area, path: str, line: int) -> None:
@@ -360,8 +349,20 @@ def _check_point(e: float, kind: str, mode: _Column | None, strain_col: _Column,
         raise RecordingError(path, line, f"positive strain {e} in a compression row", column=col)
 
 
-def _provenance(strain_col: _Column, stress_col: _Column, gauge, area, header_line: int, delimiter: str,
-                comma: bool, units_row: bool) -> dict[str, str]:
+def _check_ratio(read: float, e: float, strain_col: _Column, chosen: TensileColumns, path: str, line: int) -> None:
+    """Refuse a strain a column read as a ratio gives past :data:`MAX_RATIO_STRAIN` (its values
+    say percent), unless the command line gave the column's unit."""
+    ratio = strain_col.role != "extension" and strain_col.factor == 1.0 and chosen.strain_unit is None
+    if ratio and e > MAX_RATIO_STRAIN:
+        col, unit = strain_col.label, "" if strain_col.unit == "ratio" else f" ({strain_col.unit})"
+        raise RecordingError(path, line, f"strain column {col!r} read as a ratio{unit} reaches {read:g} here, "
+                             f"{100 * e:.6g} % engineering strain, and castable elastomers break "
+                             f"well below {100 * MAX_RATIO_STRAIN:g} %: the column looks like percent; give "
+                             "--strain-unit % (or --strain-unit ratio if it is a ratio)", column=col)
+
+
+def _provenance(strain_col: _Column, stress_col: _Column, gauge, area, header_line: int, layout: Layout,
+                units_row: bool) -> dict[str, str]:
     """What was read and how: one line each for the strain, the stress and the layout."""
     def source(c: _Column) -> str:
         return f"column {c.index + 1} {c.label!r} ({c.unit}" + (f", x {c.factor:.7g})" if c.factor != 1 else ")")
@@ -372,7 +373,6 @@ def _provenance(strain_col: _Column, stress_col: _Column, gauge, area, header_li
     stress = source(stress_col) + {"true_stress": ": true stress / (1 + strain) (incompressible, uniaxial)",
                                    "force": f" / area {area[0]:g} mm2 ({area[1]})" if area else ""
                                    }.get(stress_col.role, "")
-    name = {",": "comma", ";": "semicolon", "\t": "tab"}[delimiter]
-    layout = (f"{name}-separated, header on line {header_line}" + (", units on the next line" if units_row else "")
-              + (", decimal comma" if comma else ""))
-    return {"strain": strain, "stress_mpa": stress, "layout": layout}
+    where = (f"{DELIMITERS[layout.delimiter]}-separated, header on line {header_line}"
+             + (", units on the next line" if units_row else "") + (", decimal comma" if layout.decimal_comma else ""))
+    return {"strain": strain, "stress_mpa": stress, "layout": where}

@@ -12,10 +12,7 @@ The format for users: ``docs/recording-format.md``.
 
 from __future__ import annotations
 
-import csv
-import io
 import logging
-import math
 import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +22,7 @@ import numpy as np
 from pnmold.conventions import ORIENTATIONS, QUASI_STATIC_KINDS, RECORDING_KINDS
 from pnmold.errors import RecordingError
 from pnmold.fsutil import write_text
+from pnmold.recording.csvlayout import Layout, decode, find_layout
 from pnmold.recording.measurement import KEYS as MEASUREMENT_KEYS
 from pnmold.recording.measurement import Measurement, measurement_of
 from pnmold.recording.metadata import conversion, metadata_number, rate_in_kpa, read_metadata
@@ -107,6 +105,9 @@ class Recording:
     metadata: dict[str, str] = field(default_factory=dict)
     conversions: dict[str, str] = field(default_factory=dict)
     measurement: Measurement = field(default_factory=Measurement)
+    #: how the table was read (:class:`~pnmold.recording.csvlayout.Layout`), e.g. "semicolon-separated,
+    #: decimal comma"
+    layout: str = "comma-separated"
 
     @property
     def orientation(self) -> str:
@@ -174,24 +175,17 @@ def _column(header: list[str], name: str) -> str:
     return f"{header.index(name) + 1} ({name})"
 
 
-def finite_number(text: str, path: str, line: int, column: str | int | None = None) -> float:
-    """A data file's cell as a finite number; RecordingError names the file, line and column."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise RecordingError(path, line, f"not a number: {text!r}", column=column) from None
-    if not math.isfinite(value):
-        raise RecordingError(path, line, f"not a finite number: {text!r}", column=column)
-    return value
+#: a cell of a comma-separated file with decimal points as a finite number (:meth:`Layout.number`)
+finite_number = Layout().number
 
 
-def _cell(text: str, path: str, line: int, name: str, column: str) -> float | str:
+def _cell(text: str, layout: Layout, path: str, line: int, name: str, column: str) -> float | str:
     if name in _TEXT_COLUMNS:
         value = text.strip().lower()
         if value not in PHASES:
             raise RecordingError(path, line, f"phase must be inflate or deflate, got {text!r}", column=column)
         return value
-    value = finite_number(text, path, line, column)
+    value = layout.number(text, path, line, column)
     if name == "cycle" and (value < 1 or not value.is_integer()):
         raise RecordingError(path, line, f"cycle counts 1, 2, 3...: got {text!r}", column=column)
     return value
@@ -204,16 +198,13 @@ def read_recording(path: str | Path) -> Recording:
         raw = Path(path).read_bytes()
     except OSError as err:
         raise RecordingError(p, None, f"cannot read: {err.strerror or err}") from err
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as err:
-        line = raw[:err.start].count(b"\n") + 1
-        raise RecordingError(p, line, "not UTF-8 text") from err
-    lines = text.splitlines()
+    lines = decode(raw, p).splitlines()
     meta, header_line = read_metadata(lines, p)
     if header_line > len(lines) or not lines[header_line - 1].strip():
         raise RecordingError(p, header_line, "no header row of column names")
-    rows = list(csv.reader(io.StringIO("\n".join(lines[header_line - 1:]))))
+    layout = find_layout(lines[header_line - 1:])
+    rows = list(layout.split(lines[header_line - 1:]))
+    meta = {k: layout.plain(v) if layout.is_number(v) else v for k, v in meta.items()}
     header, names, factors = _header(rows[0], p, header_line)
     conversions = rate_in_kpa(meta, p)
     kind = _check_metadata(meta, p, [n for n in names if n])
@@ -224,8 +215,9 @@ def read_recording(path: str | Path) -> Recording:
         required, missing = alternative, []
     if missing:
         instead = f" (or {', '.join(alternative)})" if alternative else ""
-        raise RecordingError(p, header_line, f"a {kind} recording needs column(s) {', '.join(missing)}{instead}",
-                             column=missing[0])
+        why = layout.fields_hint(lines[header_line - 1], len(header), len(required))
+        raise RecordingError(p, header_line, f"a {kind} recording needs column(s) {', '.join(missing)}{instead}"
+                             f"{why}", column=missing[0])
     used = {i: n for i, n in enumerate(names) if n in required + optional}
     data: dict[str, list] = {n: [] for n in used.values()}
     for offset, row in enumerate(rows[1:], 1):
@@ -234,9 +226,10 @@ def read_recording(path: str | Path) -> Recording:
             continue
         if len(row) != len(header):
             where = f"{len(row) + 1} ({header[len(row)]})" if len(row) < len(header) else len(header) + 1
-            raise RecordingError(p, line, f"{len(row)} fields, the header has {len(header)}", column=where)
+            why = layout.fields_hint(lines[line - 1] if line <= len(lines) else "", len(row), len(header))
+            raise RecordingError(p, line, f"{len(row)} fields, the header has {len(header)}{why}", column=where)
         for i, name in used.items():
-            data[name].append(_cell(row[i], p, line, name, f"{i + 1} ({header[i]})"))
+            data[name].append(_cell(row[i], layout, p, line, name, f"{i + 1} ({header[i]})"))
     n = len(data[required[0]])
     if n < 2:
         raise RecordingError(p, header_line + 1, f"needs at least 2 rows of data, found {n}")
@@ -254,7 +247,9 @@ def read_recording(path: str | Path) -> Recording:
                                  column=_column(header, "time_s"))
     for name, how in conversions.items():
         log.info("%s: %s %s", p, name, how)
-    return Recording(p, kind, columns, meta, conversions, measurement_of(meta, p))
+    if layout != Layout():
+        log.info("%s: read as %s", p, layout)
+    return Recording(p, kind, columns, meta, conversions, measurement_of(meta, p), str(layout))
 
 
 def _header(cells: list[str], path: str, line: int) -> tuple[list[str], list[str | None], list[float]]:

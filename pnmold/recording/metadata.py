@@ -18,12 +18,13 @@ from pnmold.recording.units import PRESSURE_UNITS
 
 def read_metadata(lines: list[str], path: str) -> tuple[dict[str, str], int]:
     """The metadata of a recording's leading ``#`` lines (keys lower case, the first word of each
-    value; ``##`` lines and blank ``#`` lines are comments) and the line number of the header."""
+    value; ``##`` lines and blank ``#`` lines are comments; the empty cells a spreadsheet adds at
+    the end of a line, ``;;`` or ``,,``, are dropped) and the line number of the header."""
     meta, n = {}, 0
     for n, line in enumerate(lines, 1):
         if not line.startswith("#"):
             return meta, n
-        body = line[1:].strip()
+        body = line[1:].strip().rstrip(",;\t").strip()  # a spreadsheet pads the line with empty cells
         if not body or body.startswith("#"):  # blank, or a "##" comment
             continue
         if ":" not in body:
