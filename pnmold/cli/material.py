@@ -15,7 +15,10 @@ def add_args(parser) -> None:
     fit = actions.add_parser(
         "fit", parents=[output_flags()], help="fit a uniaxial tensile test (pnmold's CSV or a lab's file as published)",
         description="Fit an incompressible hyperelastic model to a uniaxial tensile test; prints the constants, R2 "
-        "and the strain range where the fit holds, and writes a plot like the supplement's Fig. S4. Reads pnmold's "
+        "and the strain range where the fit holds, and writes a plot like the supplement's Fig. S4. By default it "
+        "fits where actuators work: the points up to 150 % engineering strain (--max-strain 1.5; all of them when "
+        "the test stops earlier), weighting the relative error so the small strains count as much as the large "
+        "stresses at break; --max-strain full fits the whole test to break. Reads pnmold's "
         "CSV (eng_strain, eng_stress_mpa) and lab files as published, e.g. the Soft Robotics Materials Database's "
         "(';'-separated, a metadata block, 'Engineering Strain', 'Engineering Stress (MPa)'): delimiter and header "
         "found, columns by name or by the options below, units from the header (MPa, kPa, Pa, N/mm2, psi; strain "
@@ -25,8 +28,13 @@ def add_args(parser) -> None:
     fit.add_argument("--model", choices=["yeoh", "neo-hookean", "ogden"], default="yeoh")
     fit.add_argument("--json", metavar="FILE",
                      help="write the fit as JSON (the plot goes beside it); - for standard output")
-    fit.add_argument("--max-strain", type=float, metavar="E",
-                     help="fit only the points up to this engineering strain (e.g. what the actuator's walls see)")
+    fit.add_argument("--max-strain", metavar="E|full",
+                     help="fit the points up to this engineering strain (default 1.5, where actuators work, with "
+                     "--weighting relative), or 'full': every point to break; with this option the fit weights "
+                     "the stress error in MPa (--weighting absolute), as the library's constants were fitted")
+    fit.add_argument("--weighting", choices=["relative", "absolute"],
+                     help="what the fit minimises: the relative stress error (the default without --max-strain) "
+                     "or the error in MPa (the default with it)")
     fit.add_argument("--allow-negative", dest="nonnegative", action="store_false",
                      help="Yeoh: let C20 and C30 go negative (by default they are kept >= 0, as a design's "
                      "[material] section requires; a term held at 0 is named with the unconstrained value)")
@@ -39,7 +47,9 @@ def add_args(parser) -> None:
     cols.add_argument("--force-column", metavar="NAME", help="force, when there is no stress column")
     cols.add_argument("--extension-column", metavar="NAME", help="extension, when there is no strain column")
     units = fit.add_argument_group("units (default: from the header; these override it)")
-    units.add_argument("--strain-unit", metavar="UNIT", help="ratio (the default without one) or %%")
+    units.add_argument("--strain-unit", metavar="UNIT",
+                       help="ratio (the default without one) or %%; a strain read as a ratio that passes 20 "
+                       "(2000 %%) is refused as a percentage unless this option says ratio")
     units.add_argument("--stress-unit", metavar="UNIT", help="MPa, kPa, Pa, N/mm2, psi, ...")
     units.add_argument("--force-unit", metavar="UNIT", help="N, kN or lbf")
     units.add_argument("--extension-unit", metavar="UNIT", help="mm, cm, m, um or in")
@@ -63,11 +73,12 @@ def run_fit(args) -> int:
                              args.extension_unit)
     specimen = Specimen(args.gauge_length_mm, args.area_mm2, args.width_mm, args.thickness_mm)
     result = fit_command(args.tensile, args.model, json_path=json_file(args), columns=columns, specimen=specimen,
-                         nonnegative=args.nonnegative, max_strain=args.max_strain)
+                         nonnegative=args.nonnegative, max_strain=args.max_strain, weighting=args.weighting)
     emit_json(args, result.to_json())
     if not args.quiet:
         for what, how in (result.read or {}).items():
             out_console.print(f"{what}: {escape(how)}")
+    out_console.print(escape(result.scope()))
     out_console.print(escape(result.summary()))
     if result.plot:
         out_console.print(f"plot: {result.plot}")
