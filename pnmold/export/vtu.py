@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import logging
 import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -74,6 +76,41 @@ def write_vtu_series(mesh: TetMesh, solution: Solution, folder: str | Path, *, n
     _remove_stale(folder, len(entries))
     log.info("wrote %d VTU steps and %s", len(entries), index)
     return index
+
+
+@dataclass(frozen=True)
+class VtuStep:
+    """One step read back from a VTU series: the pressure (kPa, the index's ``timestep``), the
+    reference nodes (mm), the 10-node cells (VTK order) and the displacement (mm)."""
+
+    pressure_kpa: float
+    nodes_mm: np.ndarray
+    cells: np.ndarray
+    displacement_mm: np.ndarray
+
+
+def read_vtu_series(index: str | Path) -> list[VtuStep]:
+    """The steps of a series written by :func:`write_vtu_series`, in the index's order
+    (``index`` the ``.pvd`` file, or the folder holding one ``.pvd``)."""
+    import meshio
+
+    index = Path(index)
+    if index.is_dir():
+        found = sorted(index.glob("*.pvd"))
+        if len(found) != 1:
+            raise ExportError(str(index), f"expected one .pvd index, found {len(found)}")
+        index = found[0]
+    try:
+        entries = [(float(d.get("timestep")), index.parent / d.get("file"))
+                   for d in ET.parse(index).getroot().iter("DataSet")]
+        steps = []
+        for pressure, file in entries:
+            data = meshio.read(file)
+            steps.append(VtuStep(pressure, data.points, data.cells_dict["tetra10"],
+                                 data.point_data[DISPLACEMENT]))
+    except (OSError, ET.ParseError, KeyError, TypeError) as err:
+        raise ExportError(str(index), f"cannot read the VTU series: {err}") from err
+    return steps
 
 
 def pvd_text(entries: list[tuple[float, str]]) -> str:

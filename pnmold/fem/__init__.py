@@ -27,6 +27,8 @@ Formulation (details in the module docstrings):
   control (passes pressure maxima); converged states, extrapolated predictors, step
   control on bend and iterations.
 - :mod:`.failure` -- where a failed solve went wrong and what to try.
+- :mod:`.overlap` -- where a deformed body passes through itself (boundary nodes inside
+  another part of it, and how deep).
 - :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
   :class:`Step` and :class:`Solution`; :mod:`.blocked` -- :func:`blocked_force_slope` (the
   blocked force to first order in pressure).
