@@ -2,7 +2,8 @@
 
 Every error pnmold raises on purpose is a :class:`PnmoldError`; the command line maps the
 subclasses to exit codes (docs/cli.md): 2 for bad input (a design, the command line, a
-recording or data file), 3 for geometry, meshing or solver failures. Anything else that
+recording or data file, an output folder pnmold may not replace), 3 for geometry, meshing or
+solver failures, 74 for a file or folder that cannot be read or written. Anything else that
 escapes is a bug: the command line prints it in one line and exits with
 :data:`EXIT_UNEXPECTED`, never 1 (the code of "a design-rule check failed").
 """
@@ -14,6 +15,8 @@ from typing import Any
 
 #: exit code of an unexpected exception (sysexits.h EX_SOFTWARE, "internal software error")
 EXIT_UNEXPECTED = 70
+#: exit code of a file or folder that cannot be read or written (sysexits.h EX_IOERR)
+EXIT_IO = 74
 #: exit code after Ctrl-C (128 + SIGINT, as a shell reports it)
 EXIT_INTERRUPTED = 130
 
@@ -62,6 +65,26 @@ class RecordingError(PnmoldError, ValueError):
         if column is not None:
             where += f", column {column}"
         super().__init__(f"{where}: {message}")
+
+
+class OutputError(UsageError):
+    """An output path pnmold may not write: a folder holding files it did not write, a file given
+    as a folder, a folder another run is writing (exit 2); names the path and what to do."""
+
+    def __init__(self, path: str | os.PathLike, message: str):
+        self.path = str(path)
+        super().__init__(f"{self.path}: {message}")
+
+
+class FileAccessError(PnmoldError):
+    """A file or folder cannot be read or written (permissions, a full disk, a folder where a file
+    was asked for); names the user's path, never a temporary one (exit :data:`EXIT_IO`)."""
+
+    exit_code = EXIT_IO
+
+    def __init__(self, path: str | os.PathLike, message: str):
+        self.path = str(path)
+        super().__init__(f"{self.path}: {message}")
 
 
 class GeometryError(PnmoldError):

@@ -18,7 +18,7 @@ from pnmold.checks import check_parts
 from pnmold.conventions import default_out_dir
 from pnmold.design import Design, to_toml
 from pnmold.errors import MeshingError, SolveError, UsageError
-from pnmold.fsutil import staged_dir, write_json, write_text
+from pnmold.fsutil import read_json, staged_dir, write_json, write_text
 from pnmold.report import build_report as rep
 from pnmold.report import render
 from pnmold.report.checklist import checklist_sections, render_markdown
@@ -88,11 +88,9 @@ class BuildResult:
 def recheck(folder: str | Path, *, use_slicer: bool = True) -> dict[str, Any]:
     """Run the design-rule gate again on a build folder's files; update its ``report.json`` (the
     checks and the slicer's estimates, the rest kept) and return the new report."""
-    import json
-
     path = Path(folder) / "report.json"
+    report = read_json(path, "build report") if path.is_file() else {}
     checks = check_parts(folder, use_slicer=use_slicer)
-    report = json.loads(path.read_text()) if path.is_file() else {}
     report = rep.record_checks(report, checks)
     write_json(path, report)
     return report
@@ -118,7 +116,7 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
     say = progress or (lambda stage: None)
     final = Path(out_dir) if out_dir is not None else default_out_dir(design.name)
     timings: dict[str, float] = {}
-    with staged_dir(final) as tmp, render.Renderer() as renderer:
+    with staged_dir(final, "build") as tmp, render.Renderer() as renderer:
         with _stage("cad", timings, say):
             shapes = make_parts(design)
         with _stage("export", timings, say):
@@ -166,12 +164,11 @@ def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dic
 def report_for(design: Design, out_dir: str | Path | None = None) -> dict[str, Any]:
     """The build report of ``design``: the one in its build folder when that was built
     from exactly this design (same digest), else a fresh geometry-only build's."""
-    import json
     import tempfile
 
     path = Path(out_dir or default_out_dir(design.name)) / "report.json"
     if path.is_file():
-        report = json.loads(path.read_text())
+        report = read_json(path, "build report")
         if report.get("design", {}).get("digest") == rep.design_entry(design)["digest"]:
             return report
     with tempfile.TemporaryDirectory() as tmp:

@@ -137,7 +137,8 @@ def test_the_library_never_imports_the_command_line():
 #: the rooms of pnmold from the bottom up (docs/layout.md): a room imports only rooms below it, so data
 #: flow one way, design -> cad -> checks / mesh -> fem -> physics -> simulate / diagnose -> report
 ROOMS = [
-    ("pnmold.errors", "pnmold.version", "pnmold.fsutil"),
+    ("pnmold.errors", "pnmold.version"),
+    ("pnmold.fsutil",),
     ("pnmold.conventions", "pnmold.effects", "pnmold.frames", "pnmold.plots"),
     ("pnmold.recording",),
     ("pnmold.materials",),

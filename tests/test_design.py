@@ -157,6 +157,24 @@ def test_a_rubber_of_ones_own_needs_every_constant_and_keeps_them(tmp_path):
     assert load_design(path) == d  # a resolved design.toml reads back as it was
 
 
+@pytest.mark.parametrize("field, value, words", [
+    ("material.c10_mpa", "96", "stiffer than any castable"),
+    ("material.c10_mpa", "0.0001", "softer than any castable"),
+    ("material.density_g_per_ml", "11", "outside castable"),
+    ("layer_material.c10_mpa", "1000", "stiffer than any castable"),
+])
+def test_a_rubber_outside_castable_elastomers_is_refused_saying_which_side(field, value, words):
+    prefix = field.split(".")[0]
+    own = {f"{prefix}.name": "Labsil 7", f"{prefix}.c10_mpa": "0.05", f"{prefix}.c20_mpa": "0.001",
+           f"{prefix}.c30_mpa": "0", f"{prefix}.density_g_per_ml": "1.1", f"{prefix}.mix_ratio_a_to_b": "10",
+           field: value}
+    with pytest.raises(DesignError, match=words) as info:
+        load_design("fpn", [f"{k}={v}" for k, v in own.items()])
+    assert info.value.field == field
+    own[field] = "0.05" if field.endswith("c10_mpa") else "1.1"
+    load_design("fpn", [f"{k}={v}" for k, v in own.items()])  # the same rubber within the range is accepted
+
+
 def test_overrides_do_not_depend_on_their_order():
     """A rubber's constants set before its name belong to it as much as those set after (they once
     reloaded the library's silently); a key set twice to different values is refused as ambiguous."""

@@ -18,6 +18,7 @@ import pytest
 
 from pnmold.cli import main
 from pnmold.design import load_design
+from pnmold.fsutil import MARKER
 from pnmold.report.html import write_report
 from pnmold.report.render import PARTS
 
@@ -193,7 +194,8 @@ def test_write_report_replaces_the_page(plain, tmp_path):
     (folder / "report.html").write_text("old")
     write_report(folder)
     assert page_of(folder).startswith("<!doctype html>")
-    assert [p.name for p in folder.iterdir() if p.name.startswith(".")] == []  # no temporary file left
+    hidden = [p.name for p in folder.iterdir() if p.name.startswith(".")]
+    assert hidden == [MARKER]  # the build's marker, no temporary file left
 
 
 # -- the page in a browser -------------------------------------------------------------

@@ -109,3 +109,17 @@ def test_simulate_leaves_out_the_rows_past_the_maximum_and_says_why(models):
     full = simulate_rom(at_limit.design, SimulationRequest(pressures, model="rom", orientation="chambers_up"),
                         at_limit.characterisation)
     assert len(full["steps"]) == 5  # a run that stopped at its pressure limit: read on, as before
+
+
+def test_a_simulation_stops_at_full_bend_the_physical_stop():
+    """Pressures far past full bend (a GPa once gave 9 million degrees) give no row past 360 degrees;
+    the rows below are as a run that stopped before, and the reason names the stop."""
+    from pnmold.simulate import SimulationRequest, simulate_rom
+
+    design, c = _bundled_fpn()
+    far = simulate_rom(design, SimulationRequest((0.0, 20.0, 40.0, 1e3, 1e6), model="rom"), c)
+    near = simulate_rom(design, SimulationRequest((0.0, 20.0, 40.0), model="rom"), c)
+    assert [s["pressure_kpa"] for s in far["steps"]] == [0.0, 20.0, 40.0]
+    assert far["steps"] == near["steps"]
+    assert max(s["bend_angle_deg"] for s in far["steps"]) <= 360.0
+    assert "2 row(s) from 1000 kPa lie past full bend" in far["reason"] and "physical stop" in far["reason"]

@@ -29,7 +29,7 @@ from pnmold.cli import (
     templates,
 )
 from pnmold.cli._common import err_console, output_flags, stdout_for_json
-from pnmold.errors import EXIT_INTERRUPTED, EXIT_UNEXPECTED, PnmoldError
+from pnmold.errors import EXIT_INTERRUPTED, EXIT_IO, EXIT_UNEXPECTED, PnmoldError
 from pnmold.version import __version__
 
 #: verb -> its module, in the order ``--help`` lists them
@@ -91,6 +91,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return err.exit_code
         except KeyboardInterrupt:
             return _interrupted()
+        except OSError as err:  # a file or folder that cannot be read or written: the user's to fix, not a bug
+            if interrupted:
+                return _interrupted()
+            where = f"{err.filename}: " if err.filename else ""
+            err_console.print(f"[red]error[/red] (file access): {escape(where + (err.strerror or str(err)))}")
+            return EXIT_IO
         except Exception as err:  # a bug, not the user's doing: one line, the traceback with -v
             if interrupted:
                 return _interrupted()

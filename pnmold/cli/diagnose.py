@@ -52,6 +52,10 @@ def run(args) -> int:
             sep = ""
         if not sep:
             raise UsageError(f"--uncertain takes FIELD=MM (e.g. chambers.outer_wall_mm=1), got {item!r}")
+    if args.report:  # refused before the work, not after it
+        from pnmold.fsutil import check_replaceable
+
+        check_replaceable(args.report)
     design = load(args)
     with stages(args, f"characterise {design.name} (once)") as say:
         diag = diagnose_recordings(design, args.recordings, seed=args.seed, json_path=json_file(args),

@@ -38,6 +38,10 @@ def run(args) -> int:
     from pnmold.export.folder import export_build
     from pnmold.simulate import parse_pressures
 
+    if args.out:  # refused before the meshing, not after it
+        from pnmold.fsutil import check_replaceable
+
+        check_replaceable(args.out)
     pressures = parse_pressures(args.pressures) if args.pressures else None
     options = DeckOptions(solver=args.solver, solid=args.element, layer=args.layer)
     with stages(args, f"export {args.format}") as say:

@@ -18,6 +18,15 @@ from pnmold.errors import DesignError
 #: in a 2 mm punched hole is 19 % wider)
 TUBE_INTERFERENCE_MAX = 0.3
 
+#: assumed: the Yeoh C10 of castable elastomers lies between these (MPa). The library's softest,
+#: Ecoflex 00-30, has 0.0082 and Elastosil M4601 0.11 (pnmold/materials/library.py); the softest
+#: castable silicones are about half as stiff as Ecoflex 00-30 and the stiffest castable polyurethane
+#: rubbers (Shore 90A) about 20 times Elastosil, so the bounds leave a margin of 4 to 5 on each side.
+#: A value outside is a typo or a unit slip (kPa for MPa, a Young's modulus of a plastic), not a rubber.
+C10_CASTABLE_MPA = (0.001, 10.0)
+#: assumed: a density outside this (g/mL) is not a castable elastomer (silicones 1.07-1.5, fillers to ~2)
+DENSITY_CASTABLE_G_PER_ML = (0.5, 3.0)
+
 # fields allowed to be zero or negative
 _SIGNED = {"inlet.axis_offset_mm"}
 _NON_NEGATIVE = {"chambers.tip_wall_mm", "clamp.length_mm", "paper.depth_mm",
@@ -135,6 +144,17 @@ def _check_channel_and_inlet(design: Design) -> None:
           f"{inlet.tubing_id_mm} mm must be smaller than the outer diameter {inlet.tubing_od_mm} mm")
 
 
+def _check_castable(prefix: str, name: str, c10_mpa: float, density_g_per_ml: float) -> None:
+    lo, hi = C10_CASTABLE_MPA
+    what = ("softer than any castable elastomer (a value in kPa, or a gel?)" if c10_mpa < lo
+            else "stiffer than any castable elastomer (a value in kPa read as MPa, or a Young's modulus of a plastic?)")
+    _need(lo <= c10_mpa <= hi, f"{prefix}.c10_mpa", f"{c10_mpa:g} MPa for {name!r} is {what}; castable rubbers "
+          f"have a Yeoh C10 of {lo:g} to {hi:g} MPa (Ecoflex 00-30 0.0082, Elastosil M4601 0.11)")
+    lo, hi = DENSITY_CASTABLE_G_PER_ML
+    _need(lo <= density_g_per_ml <= hi, f"{prefix}.density_g_per_ml",
+          f"{density_g_per_ml:g} g/mL for {name!r} is outside castable elastomers' {lo:g} to {hi:g} g/mL")
+
+
 def _check_layer_material(design: Design) -> None:
     m = design.layer_material
     given = {k: getattr(m, k) for k in ("c10_mpa", "c20_mpa", "c30_mpa", "density_g_per_ml", "mix_ratio_a_to_b")}
@@ -147,6 +167,7 @@ def _check_layer_material(design: Design) -> None:
         return
     for key in ("c10_mpa", "density_g_per_ml", "mix_ratio_a_to_b"):
         _need(given[key] > 0, f"layer_material.{key}", f"must be positive for {m.name!r}, got {given[key]:g}")
+    _check_castable("layer_material", m.name, m.c10_mpa, m.density_g_per_ml)
 
 
 def _check_paper(design: Design) -> None:
@@ -193,6 +214,7 @@ def validate(design: Design) -> Design:
     _check_printable(design)
     _check_channel_and_inlet(design)
     _check_paper(design)
+    _check_castable("material", design.material.name, design.material.c10_mpa, design.material.density_g_per_ml)
     _check_layer_material(design)
     _check_build_volume(design)
     return design

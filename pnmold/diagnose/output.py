@@ -19,7 +19,7 @@ def write_report(diag: Diagnosis, folder: str | Path) -> Path:
     from .plots import fit_figure
 
     folder = Path(folder)
-    with staged_dir(folder) as tmp:
+    with staged_dir(folder, "diagnosis report") as tmp:
         write_json(tmp / "diagnosis.json", diag.doc)
         fit_figure(diag, tmp / "fits.png")
         write_text(tmp / "report.html", _page(diag, tmp / "fits.png"))

@@ -9,7 +9,6 @@ orientation (chambers up, gravity on) and the pressures of its converged FE step
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -17,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from pnmold.errors import UsageError
+from pnmold.fsutil import read_json, staged_dir, write_json
 from pnmold.tetmesh import MeshSize
 
 from . import FORMATS
@@ -47,7 +47,7 @@ def _read_build(build_dir: Path) -> tuple[Any, dict[str, Any]]:
         raise UsageError(f"{build_dir}: not a build folder (needs design.toml and actuator.step; "
                          "run `pnmold build` first)")
     report_path = build_dir / "report.json"
-    report = json.loads(report_path.read_text()) if report_path.is_file() else {}
+    report = read_json(report_path, "build report") if report_path.is_file() else {}
     return load_design(build_dir / "design.toml"), report.get("fem") or {}
 
 
@@ -107,18 +107,18 @@ def export_build(build_dir: str | Path, fmt: str = "abaqus", *, out_dir: str | P
                         f"lies between z = {design.bottom_z0_mm:g} and {design.top_z0_mm:g} mm"}
     mesh, _ = mesh_actuator(build_dir / "actuator.step", design, size)
     out = Path(out_dir) if out_dir is not None else build_dir / fmt
-    if fmt == "sofa":
-        files = write_sofa(out, mesh, doc)
-        body = whole(mesh)
-        nodes, elements = body.n_nodes, body.n_tets
-    else:
-        from pnmold.fsutil import write_json
-
-        qmesh = quadratic_mesh(mesh)
-        deck = write_abaqus(out / DECK_NAME, qmesh, material, membrane, pressures_kpa=pressures,
-                            gravity_g=direction, options=options, title=f"pnmold {design.name}: the build's quick FE",
-                            regions=regions)
-        files = [deck, write_json(out / "material.json", doc)]
-        nodes, elements = qmesh.n_nodes, len(qmesh.cells)
+    with staged_dir(out, f"{fmt} export") as tmp:
+        if fmt == "sofa":
+            written = write_sofa(tmp, mesh, doc)
+            body = whole(mesh)
+            nodes, elements = body.n_nodes, body.n_tets
+        else:
+            qmesh = quadratic_mesh(mesh)
+            deck = write_abaqus(tmp / DECK_NAME, qmesh, material, membrane, pressures_kpa=pressures,
+                                gravity_g=direction, options=options,
+                                title=f"pnmold {design.name}: the build's quick FE", regions=regions)
+            written = [deck, write_json(tmp / "material.json", doc)]
+            nodes, elements = qmesh.n_nodes, len(qmesh.cells)
+    files = [out / Path(f).relative_to(tmp) for f in written]
     log.info("exported %s of %s to %s", fmt, build_dir, out)
     return Exported(fmt, out, tuple(files), pressures, direction, size, nodes, elements)

@@ -63,9 +63,11 @@ characterised once.
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import os
+import re
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
@@ -113,10 +115,22 @@ def cache_dir() -> Path:
     every working folder shares it."""
     env = os.environ.get("PNMOLD_CACHE")
     if env:
-        return Path(env)
+        return _claimed(Path(env))
     from platformdirs import user_cache_dir
 
-    return Path(user_cache_dir("pnmold", appauthor=False)) / "fe"
+    return _claimed(Path(user_cache_dir("pnmold", appauthor=False)) / "fe")
+
+
+#: the names pnmold writes in its FE cache (:func:`cache_path`)
+CACHE_NAME = re.compile(r"[\w.+-]+-v\d+\.json")
+
+
+@functools.cache
+def _claimed(folder: Path) -> Path:
+    """The cache folder, made or adopted once per process (:func:`pnmold.fsutil.claim_store`)."""
+    from pnmold.fsutil import claim_store
+
+    return claim_store(folder, "FE cache", CACHE_NAME)
 
 
 def cache_path(design: Design, size: MeshSize, max_pressure_kpa: float) -> Path:

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import base64
 import html
-import json
 import logging
 from pathlib import Path
 from typing import Any
 
 from pnmold.conventions import MOLDS
 from pnmold.errors import PnmoldError, UsageError
-from pnmold.fsutil import write_text
+from pnmold.fsutil import read_json, write_text
 from pnmold.report import render
 
 log = logging.getLogger(__name__)
@@ -282,7 +281,7 @@ def report_page(folder: str | Path, report: dict[str, Any] | None = None,
         path = folder / "report.json"
         if not path.is_file():
             raise UsageError(f"{folder}: no report.json (not a build folder?)")
-        report = json.loads(path.read_text())
+        report = read_json(path, "build report")
     fem = report.get("fem") or {}
     checks = report.get("checks") or []
     failed = sum(c["passed"] is False for c in checks)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from pnmold.conventions import NO_GRAVITY, QUASI_STATIC_KINDS, check_orientation, full_bend_crossing
+from pnmold.conventions import FULL_BEND_DEG, NO_GRAVITY, QUASI_STATIC_KINDS, check_orientation, full_bend_crossing
 from pnmold.design import Design, digest
 from pnmold.errors import SolveError, UsageError
 from pnmold.tetmesh import MeshSize
@@ -267,6 +267,12 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
     if past.any():
         reason = (f"{characterisation.reason}; {int(past.sum())} of {len(past)} rows lie past it and are left "
                   f"out (no equilibrium under pressure control)")
+    curled = [s for s in steps if s["bend_angle_deg"] > FULL_BEND_DEG]
+    if curled:  # the free end has met the clamped end: a physical stop, not a bend the rod may go on with
+        steps = [s for s in steps if s["bend_angle_deg"] <= FULL_BEND_DEG]
+        reason = "; ".join(filter(None, [reason, (
+            f"{len(curled)} row(s) from {min(s['pressure_kpa'] for s in curled):g} kPa lie past full bend "
+            f"({FULL_BEND_DEG:g} deg: the free end meets the clamped end, a physical stop) and are left out")]))
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "rom",
             "kind": request.kind, "orientation": request.orientation, "effects": effects, "steps": steps,
             "full_bend_pressure_kpa": fb, "reason": reason,

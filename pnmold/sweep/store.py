@@ -64,14 +64,25 @@ class SweepStore:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._lock_path = self.path.with_name(self.path.name + ".lock")
         self._lock = self._take_lock()
+        existed = self.path.is_file() and self.path.stat().st_size > 0
         try:
             self.con = sqlite3.connect(self.path, timeout=30)
+            if existed:
+                self._check_ours()
             self.con.execute("PRAGMA journal_mode=WAL")
             self.con.execute("PRAGMA synchronous=FULL")
             self._create()
         except sqlite3.DatabaseError as err:
             self.close()
             raise UsageError(f"{self.path}: not a sweep database ({err})") from err
+
+    def _check_ours(self) -> None:
+        """Refuse a database pnmold did not write (before anything is written to it)."""
+        tables = {row[0] for row in self.con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        if not {"points", "runs", "reports"} <= tables:
+            self.close()
+            raise UsageError(f"{self.path}: an SQLite database pnmold did not write (tables: "
+                             f"{', '.join(sorted(tables)) or 'none'}); give --db a new file's name")
 
     def __enter__(self) -> SweepStore:
         return self
