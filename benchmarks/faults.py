@@ -1,7 +1,7 @@
 """Fault injection through the command line: bad inputs, unwritable outputs, folders of a lab's own
 files, Ctrl-C at several moments, and one deliberately injected bug.
 
-Every case runs ``python -m pnmold ...`` in a scratch folder of its own holding a lab's files (a
+Every case runs ``python -m pnmold.cli ...`` in a scratch folder of its own holding a lab's files (a
 recording, a notes file, a sub-folder of camera data). After the run every file that was there
 before must still be there byte for byte ("files lost"), standard error must hold no Python
 traceback, and exit 70 (a bug) may come only from the injected bug. Prints one line per case and
@@ -36,7 +36,7 @@ BUG = ("import sys; import pnmold.cli.templates as t; t.run = lambda args: 1 / 0
 @dataclass(frozen=True)
 class Case:
     name: str
-    argv: tuple[str, ...]          # after `python -m pnmold`; "{d}" is the scratch folder
+    argv: tuple[str, ...]          # after `python -m pnmold.cli`; "{d}" is the scratch folder
     files: tuple[tuple[str, str | bytes], ...] = ()  # extra input files to make first
     codes: tuple[int, ...] = (2,)  # the exit codes the case expects
     interrupt_s: float | None = None
@@ -143,7 +143,7 @@ def run_case(case: Case) -> dict:
     d = _scratch(case)
     before = _snapshot(d)
     fill = [a.replace("{d}", str(d)) for a in case.argv]
-    cmd = [PY, "-c", case.script] if case.script else [PY, "-m", "pnmold", "--quiet", *fill]
+    cmd = [PY, "-c", case.script] if case.script else [PY, "-m", "pnmold.cli", "--quiet", *fill]
     env = {**os.environ, **{k: v.replace("{d}", str(d)) for k, v in case.env}}
     env.setdefault("PNMOLD_CACHE", str(Path(tempfile.gettempdir()) / "pnmold-faults-cache"))
     t0 = time.perf_counter()

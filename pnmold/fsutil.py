@@ -40,6 +40,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     path = Path(path)
     if path.is_dir():
         raise FileAccessError(path, "is a folder; give a file name")
+    _check_parents(path)
     with _access(path, "cannot write"):
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
@@ -52,6 +53,15 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _check_parents(path: Path) -> None:
+    """A file where a folder of ``path`` should be is named as such (mkdir would say only "File exists")."""
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise FileAccessError(path, f"{parent} is a file, not a folder")
+            return
 
 
 @contextmanager
@@ -93,6 +103,7 @@ def staged_dir(final: str | Path, what: str = "output") -> Iterator[Path]:
 @contextmanager
 def _staged(final: Path, what: str) -> Iterator[Path]:
     check_replaceable(final)
+    _check_parents(final)
     with _access(final, "cannot create"):
         final.parent.mkdir(parents=True, exist_ok=True)
     with _locked(final):

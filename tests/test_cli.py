@@ -86,6 +86,33 @@ def test_ctrl_c_turned_into_another_error_by_a_library_still_exits_130(monkeypat
     assert signal.getsignal(signal.SIGINT) is before  # the handler is put back as it was
 
 
+def test_ctrl_c_during_an_import_is_kept_for_later_not_raised_inside_it(tmp_path, monkeypatch, capsys):
+    """An interrupt raised inside an import can be swallowed (trimesh imports its extras under
+    ``except BaseException``) or leave a C extension half set up; it is noted there, the import
+    finishes, and the run still ends as interrupted."""
+    import importlib
+    import sys
+
+    from pnmold.cli import templates
+
+    (tmp_path / "slow_extra.py").write_text(
+        "import os, signal, time\nos.kill(os.getpid(), signal.SIGINT)\ntime.sleep(0.2)\nFINISHED = True\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    loaded = {}
+
+    def importing(args):
+        loaded["module"] = importlib.import_module("slow_extra")
+        return 0
+
+    monkeypatch.setattr(templates, "run", importing)
+    try:
+        assert main(["templates"]) == 130
+    finally:
+        sys.modules.pop("slow_extra", None)
+    assert loaded["module"].FINISHED  # the import ran to its end
+    assert "interrupted" in capsys.readouterr().err
+
+
 def test_a_users_text_is_printed_as_written_not_as_an_emoji(capsys):
     """Rich reads ``:b:`` as an emoji code; a design named ``nosuch:b:step`` (or a mix ratio, a path with
     colons) must come back in the error as the user wrote it."""

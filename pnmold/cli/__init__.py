@@ -6,6 +6,22 @@ geometry, meshing or solver failure; 130 after Ctrl-C; 70 for an unexpected erro
 one line, the traceback with ``-v``).
 """
 
-from pnmold.cli._main import main, make_parser
+from pnmold.cli._interrupts import noting_interrupts
+
+
+def main(argv=None) -> int:
+    """Run the command line (``argv``: its words, default ``sys.argv[1:]``); return the exit code.
+    The Ctrl-C handler goes in before the verbs are imported (:mod:`pnmold.cli._interrupts`)."""
+    with noting_interrupts():
+        from pnmold.cli._main import main as run
+
+        return run(argv)
+
+
+def make_parser():
+    from pnmold.cli._main import make_parser as parser
+
+    return parser()
+
 
 __all__ = ["main", "make_parser"]

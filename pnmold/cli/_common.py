@@ -79,10 +79,16 @@ def load(args):
 @contextmanager
 def stages(args, title: str) -> Iterator[Callable[[str], None]]:
     """A ``say(stage)`` callback that shows each stage with its time (nothing with ``--quiet``)."""
+    from pnmold.cli._interrupts import INTERRUPTS
     from pnmold.cli.progress import stage_progress
 
     with stage_progress(err_console, args.quiet, title=title) as say:
-        yield say
+        def checked(stage: str) -> None:
+            if INTERRUPTS:  # a Ctrl-C noted during an import, or one a library swallowed (pnmold.cli._interrupts)
+                raise KeyboardInterrupt
+            say(stage)
+
+        yield checked
 
 
 def verdict(checks: list[dict], quiet: bool) -> int:

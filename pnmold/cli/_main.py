@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import logging
-import signal
 import sys
-import threading
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 
 from rich.markup import escape
 
@@ -29,6 +26,7 @@ from pnmold.cli import (
     templates,
 )
 from pnmold.cli._common import err_console, output_flags, stdout_for_json
+from pnmold.cli._interrupts import noting_interrupts
 from pnmold.errors import EXIT_INTERRUPTED, EXIT_IO, EXIT_UNEXPECTED, PnmoldError
 from pnmold.version import __version__
 
@@ -52,26 +50,6 @@ def make_parser() -> argparse.ArgumentParser:
     return parser
 
 
-@contextlib.contextmanager
-def _noting_interrupts() -> Iterator[list[bool]]:
-    """Ctrl-C noted as it arrives (and raised as usual): a library that turns the interrupt into an error
-    of its own (a worker pool, a solver's C code) still ends the run as interrupted, not as a bug."""
-    noted: list[bool] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield noted
-        return
-
-    def on_sigint(signum, frame):
-        noted.append(True)
-        raise KeyboardInterrupt
-
-    before = signal.signal(signal.SIGINT, on_sigint)
-    try:
-        yield noted
-    finally:
-        signal.signal(signal.SIGINT, before)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     parser = make_parser()
     try:
@@ -80,10 +58,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
-    with _noting_interrupts() as interrupted:
+    with noting_interrupts() as interrupted:
         try:
             with stdout_for_json(args):  # --json -: standard output carries the JSON only
-                return args.handler(args)
+                code = args.handler(args)
+            return _interrupted() if interrupted else code  # a Ctrl-C a library swallowed still ends the run so
         except PnmoldError as err:
             if interrupted:
                 return _interrupted()
