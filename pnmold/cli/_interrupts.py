@@ -5,12 +5,14 @@ that arrives while a module is being imported is noted and not raised there: an 
 half can leave a C extension half set up (a crash later), and some libraries import their extras
 under ``except BaseException`` (trimesh), which would swallow it. A noted interrupt is raised at
 the next stage of the run (:func:`pnmold.cli._common.stages`) and ends the run as interrupted
-(130) even where a library turned it into an error of its own.
+(130) even where a library turned it into an error of its own. A second Ctrl-C ends the process at
+once (a long C call, e.g. a CAD boolean, runs to its end before Python sees the first).
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import threading
 from collections.abc import Iterator
@@ -29,6 +31,9 @@ def _importing(frame) -> bool:
 
 def on_sigint(signum, frame) -> None:
     INTERRUPTS.append(True)
+    if len(INTERRUPTS) > 1:  # pressed again while the first waits for a long C call to return: leave now
+        os.write(2, b"interrupted\n")  # temporary files of this run are removed by the next run into its folders
+        os._exit(130)
     if not _importing(frame):
         raise KeyboardInterrupt
 
