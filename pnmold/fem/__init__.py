@@ -27,6 +27,9 @@ Formulation (details in the module docstrings):
   control (passes pressure maxima); converged states, extrapolated predictors, step
   control on bend and iterations.
 - :mod:`.failure` -- where a failed solve went wrong and what to try.
+- :mod:`.contact` / :mod:`.gap` -- frictionless self-contact of the outer surface (opt-in,
+  ``SolveOptions(self_contact=SelfContact())``): a C2 penalty on the signed distance of the
+  P2 facets' quadrature points to the facing surface, pairs found on the deformed shape.
 - :mod:`.overlap` -- where a deformed body passes through itself (boundary nodes inside
   another part of it, and how deep).
 - :mod:`.solver` / :mod:`.results` -- :func:`solve_bending`, :func:`solve_blocked_force`,
@@ -39,6 +42,7 @@ Formulation (details in the module docstrings):
 """
 
 from .blocked import BlockedSlope, blocked_force_slope
+from .contact import SelfContact
 from .material import Membrane, Yeoh
 from .model import Load, Model
 from .newton import Newton, NewtonOptions
@@ -51,6 +55,7 @@ __all__ = [
     "PAPER",
     "PressureMaximum",
     "STOPS",
+    "SelfContact",
     "Load",
     "Membrane",
     "Model",

@@ -27,6 +27,7 @@ from skfem.refdom import RefTri
 from ..errors import MeshingError
 from ..tetmesh import BOTTOM_LAYER, CAVITY, FREE_END, STRAIN_LIMITING_LAYER, TetMesh
 from . import kernels, surface
+from .contact import ContactSurface, ContactTerms, SelfContact, outer_faces
 from .material import Membrane, Yeoh
 
 log = logging.getLogger(__name__)
@@ -68,7 +69,8 @@ class Evaluation:
 
     ``volume_gradient`` is dV_cavity/du (full length; None without a cavity);
     ``inverted`` the indices of the tetrahedra with J <= 0 somewhere (then ``ok`` is False);
-    ``wrinkled`` the fraction of the sheet's quadrature points that are wrinkled or slack.
+    ``wrinkled`` the fraction of the sheet's quadrature points that are wrinkled or slack;
+    ``self_contact_n`` the self-contact's total normal force (N, as meshed) on ``contact_pairs``.
     """
 
     residual: np.ndarray
@@ -81,6 +83,8 @@ class Evaluation:
     volume_gradient: np.ndarray | None = None
     inverted: np.ndarray | None = None
     wrinkled: float = 0.0
+    self_contact_n: float = 0.0
+    contact_pairs: int = 0
 
 
 def _element_constants(mesh: TetMesh, material: Yeoh,
@@ -117,11 +121,12 @@ class Model:
     contact_set : facet set whose nodes may touch the rigid plane of a :class:`Load`.
     regions : element-set name -> the rubber of those elements instead of ``material``
         (e.g. a strain-limiting layer cast in a stiffer silicone); same volumetric treatment.
+    self_contact : the outer surface's frictionless self-contact (:mod:`.contact`); None: none.
     """
 
     def __init__(self, mesh: TetMesh, material: Yeoh, membrane: Membrane | None,
                  fixed: Mapping[str, Sequence[int]], contact_set: str = FREE_END,
-                 regions: Mapping[str, Yeoh] | None = None):
+                 regions: Mapping[str, Yeoh] | None = None, self_contact: SelfContact | None = None):
         self.mesh, self.material = mesh, material
         self.constants, self.density_ratio = _element_constants(mesh, material, regions or {})
         #: the rubber the sheet lies on (its wrinkling and solved stiffness depend on it)
@@ -166,6 +171,7 @@ class Model:
         self.volume_load = np.asarray(scalar_load)
         cnodes = self.facet_dofs.get(contact_set)
         self.contact_nodes = np.unique(cnodes) if cnodes is not None else np.zeros(0, int)
+        self.contact = self._contact_surface(self_contact) if self_contact is not None else None
         log.info("P2 model: %d tets, %d unknowns, %d nonzeros (upper)", self.edofs.shape[0],
                  self.free.size, self.indices.size)
 
@@ -184,7 +190,7 @@ class Model:
             raise MeshingError("a facet edge is not an edge of the tetrahedra")
         return self._edge_order[pos]
 
-    def _facet_dofs(self, name: str, facets: np.ndarray) -> np.ndarray:
+    def _facet_dofs(self, name: str, facets: np.ndarray, warn: bool = True) -> np.ndarray:
         """(K, 6) scalar P2 dofs of a facet set, re-oriented outward of the solid."""
         f = np.array(facets, dtype=np.int64, copy=True)
         if f.max() >= self.skmesh.nvertices:
@@ -205,34 +211,55 @@ class Model:
         opposite = p[sk.t[:, tet].T].mean(axis=1) - p[f].mean(axis=1)
         flip = np.einsum("ij,ij->i", normal, opposite) > 0
         outer = sk.f2t[1, order[pos]] < 0  # an inner face (an embedded sheet's) has no outward side
-        if (flip & outer).any():
+        if warn and (flip & outer).any():
             log.warning("facet set %r: %d of %d triangles re-oriented outward", name,
                         int((flip & outer).sum()), len(f))
         f[flip] = f[flip][:, [0, 2, 1]]
         edges = [n + self._edge_ids(f[:, i], f[:, j]) for i, j in _TRI_EDGES]
         return np.ascontiguousarray(np.column_stack([f, *edges]))
 
+    def _contact_surface(self, options: SelfContact) -> ContactSurface:
+        """The outer surface (:func:`.contact.outer_faces`) as a :class:`ContactSurface`."""
+        faces = outer_faces(self.skmesh.facets[:, self.skmesh.boundary_facets()].T, self.mesh.facets)
+        return ContactSurface(self.X, self._facet_dofs("contact surface", faces, warn=False), options)
+
     # -- sparsity -----------------------------------------------------------------------
     def _build_pattern(self) -> None:
-        nfree = self.free.size
-        keys = kernels.pair_keys(self.edofs, self.free_index, nfree)
+        keys = kernels.pair_keys(self.edofs, self.free_index, self.free.size)
         valid = keys >= 0
         uniq, inverse = np.unique(keys[valid], return_inverse=True)
-        self._keys = uniq
         kmap = np.full(keys.shape, -1, dtype=np.int32)
         kmap[valid] = inverse
         self.kmap_solid = kmap
-        rows = uniq // nfree
-        self.indices = (uniq - rows * nfree).astype(np.int32)
+        self._set_pattern(uniq)
+
+    def _set_pattern(self, keys: np.ndarray) -> None:
+        """The reduced tangent's CSR pattern from its sorted keys ``row * nfree + col``."""
+        nfree = self.free.size
+        self._keys = keys
+        rows = keys // nfree
+        self.indices = (keys - rows * nfree).astype(np.int32)
         self.indptr = np.zeros(nfree + 1, dtype=np.int32)
         np.cumsum(np.bincount(rows, minlength=nfree), out=self.indptr[1:])
         self.diag_pos = self.indptr[:-1].astype(np.int64)
 
     def _map_facets(self, fdofs: np.ndarray) -> np.ndarray:
+        """Positions in the pattern of each entry of the elements ``fdofs``; the pattern grows
+        by the couplings it lacks (contact pairs, found as the shape moves: the linear solver
+        then analyses the new pattern once), the maps already made moved along."""
         keys = kernels.pair_keys(fdofs, self.free_index, self.free.size)
-        pos = np.searchsorted(self._keys, keys)
-        out = np.where(keys >= 0, pos, -1).astype(np.int32)
-        return out
+        pos = np.clip(np.searchsorted(self._keys, keys), 0, self._keys.size - 1)
+        missing = (keys >= 0) & (self._keys[pos] != keys)
+        if missing.any():
+            grown = np.union1d(self._keys, keys[missing])
+            moved = np.searchsorted(grown, self._keys).astype(np.int32)
+            for name in ("kmap_solid", "kmap_mem", "kmap_cav"):
+                kmap = getattr(self, name, None)
+                if kmap is not None:
+                    setattr(self, name, np.where(kmap >= 0, moved[np.maximum(kmap, 0)], -1).astype(np.int32))
+            self._set_pattern(grown)
+            pos = np.searchsorted(self._keys, keys)
+        return np.where(keys >= 0, pos, -1).astype(np.int32)
 
     def _build_membrane(self) -> None:
         fd = self.facet_dofs.get(STRAIN_LIMITING_LAYER)
@@ -298,6 +325,8 @@ class Model:
         u = np.ascontiguousarray(u, dtype=float)
         R = np.zeros(self.ndof)
         Rext = np.zeros(self.ndof)
+        touch = self.contact.terms(self.X + u.reshape(-1, 3), want_k) if self.contact is not None else None
+        kmap_touch = self._map_facets(touch.gdofs) if want_k and touch is not None else None
         data = np.zeros(self.indices.size) if want_k else None
         energy, inverted = self._solid(u, want_k, R, data, mixed)
         if inverted.size:
@@ -327,6 +356,8 @@ class Model:
                 fi = self.free_index[zdofs]
                 sel = (gap <= 0) & (fi >= 0)  # touching counts as closed: the tip starts on the plane
                 np.add.at(data, self.diag_pos[fi[sel]], k)
+        if touch is not None:
+            energy += self._self_contact(touch, kmap_touch, R, data)
         R += Rext
         ext = float(np.linalg.norm(Rext[self.free]))
         mtx = None
@@ -334,7 +365,16 @@ class Model:
             n = self.free.size
             mtx = sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
         return Evaluation(R, energy, True, ext, volume, force, mtx, dvdu, np.zeros(0, np.int64),
-                          wrinkled)
+                          wrinkled, touch.force_n if touch else 0.0, touch.pairs if touch else 0)
+
+    @staticmethod
+    def _self_contact(touch: ContactTerms, kmap: np.ndarray | None, R: np.ndarray,
+                      data: np.ndarray | None) -> float:
+        """Adds the self-contact's residual (and tangent, at ``kmap``); its energy."""
+        kernels.scatter_vector(touch.residual, touch.gdofs, R)
+        if data is not None:
+            kernels.scatter_matrix(touch.tangent, kmap, data)
+        return touch.energy
 
     def _solid(self, u: np.ndarray, want_k: bool, R: np.ndarray, data: np.ndarray | None,
                mixed: Stresses | None) -> tuple[float, np.ndarray]:

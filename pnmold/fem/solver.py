@@ -25,6 +25,7 @@ from ..conventions import FULL_BEND_DEG
 from ..errors import DesignError, SolveError
 from ..tetmesh import CLAMP, SYMMETRY, TetMesh
 from . import failure
+from .contact import SelfContact
 from .linsolve import one_blas_thread
 from .material import Membrane, Yeoh
 from .model import Load, Model
@@ -58,6 +59,9 @@ class SolveOptions:
     gravity_first_step : first increment of the gravity factor (0 -> 1); None: from
         the tangent.
     contact_stiffness_n_per_mm : penalty stiffness per node of the blocking plane.
+    self_contact : the outer surface's frictionless self-contact (:mod:`.contact`: walls that
+        meet across a gap, the tip meeting the base); None (the default): none, the body may
+        pass through itself.
     newton : Newton tolerances and step growth/cut control.
     """
 
@@ -70,6 +74,7 @@ class SolveOptions:
     max_stretch: float | None = None
     gravity_first_step: float | None = None
     contact_stiffness_n_per_mm: float = 50.0
+    self_contact: SelfContact | None = None
     newton: NewtonOptions = field(default_factory=NewtonOptions)
 
     def control(self) -> Control:
@@ -102,7 +107,7 @@ class _Setup:
         fixed = {CLAMP: (0, 1, 2)}
         if mesh.half:
             fixed[SYMMETRY] = (1,)
-        self.model = Model(mesh, material, membrane, fixed, regions=regions)
+        self.model = Model(mesh, material, membrane, fixed, regions=regions, self_contact=options.self_contact)
         self.newton = Newton(self.model, options.newton)
         self.observer = Observer(self.model)
         self.options = options

@@ -1,0 +1,233 @@
+"""Frictionless self-contact of the body's outer surface: a smooth point-to-surface penalty.
+
+The contact surface is the body's boundary less the cavity (its walls are pushed apart by the
+pressure) and the y = 0 plane of a half model (the mirror half meets it there, held by the
+symmetry; the half model carries half of every contact force, as of every other force).
+
+**Slaves and masters.** The *slaves* are the quadrature points of the surface's quadratic
+facets (3 a facet, on the P2 surface, each with its reference area): the contact pressure is
+integrated against the P2 shape functions, so a uniform pressure loads the corner and
+midside nodes as a uniform traction does (node-to-surface on P2 facets lumps it onto the
+corners, and the faces it presses go wavy). The *masters* are the 4 flat triangles of each
+facet on its P2 nodes. Every facet is both (two passes), each pass with half the weight, so
+two facing surfaces pressed together carry the penalty ``penalty_mpa_per_mm`` once.
+
+**Pairs, found on the deformed surface at every evaluation** (each Newton iterate and each
+trial of its line search, so residual, tangent and energy at one state use the same pairs):
+a KD-tree of the masters' deformed centroids gives each slave its candidates; those of *the
+same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:`.overlap`;
+found once) are dropped; of the rest, the triangle nearest the slave is its pair where the
+slave faces it (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
+activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex).
+
+**Penalty.** Per pair ``w A_q phi(g)``: ``A_q`` the slave point's reference area, ``w = 1/2``
+(two passes), ``phi'' = k (delta - g) / delta`` between ``g = delta`` and 0 and ``phi'' = k``
+below: C2, no force beyond the activation distance ``delta``, a contact pressure ``k (delta/2 -
+g)`` once the surfaces overlap, so a contact pressed at ``P`` sits at ``g = delta/2 - P/k`` (at
+``g = delta - sqrt(2 delta P / k)`` while ``P < k delta / 2``). Its tangent is exact (the
+distance's Hessian through the slave point's shape functions), so Newton converges
+quadratically once the pairs settle (``tests/test_contact.py`` prints the residuals).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..tetmesh import CAVITY, SYMMETRY
+from .gap import plane_gap, signed_distance
+from .overlap import SAME_PART_MM, point_triangle_distance
+
+#: the 4 flat triangles of a 6-node facet (corners 0-2, midsides 01, 12, 02), oriented as it
+SUBTRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
+#: the slave points of a facet: the 3-point rule (degree 2, exact for the P2 shape functions
+#: against a uniform pressure), barycentric coordinates; each weighs 1/6 of the unit
+#: triangle's doubled Jacobian
+_POINTS = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+_UPPER = np.triu_indices(27)  # the row-by-row upper triangle of a pair's 27 x 27 tangent
+
+
+def _p2_shape(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 6 P2 shape functions at barycentric points ``L`` (n, 3), and their derivatives along
+    the unit triangle's two edges from corner 0 (n, 2, 6)."""
+    L0, L1, L2 = L.T
+    N = np.column_stack([L0 * (2 * L0 - 1), L1 * (2 * L1 - 1), L2 * (2 * L2 - 1),
+                         4 * L0 * L1, 4 * L1 * L2, 4 * L0 * L2])
+    dL = np.column_stack([4 * L0 - 1, 4 * L1 - 1, 4 * L2 - 1])  # d N_corner / d L_corner
+    d1 = np.column_stack([-dL[:, 0], dL[:, 1], np.zeros(len(L)), 4 * (L0 - L1), 4 * L2, -4 * L2])
+    d2 = np.column_stack([-dL[:, 0], np.zeros(len(L)), dL[:, 2], -4 * L1, 4 * L1, 4 * (L0 - L2)])
+    return N, np.stack([d1, d2], axis=1)
+
+
+@dataclass(frozen=True)
+class SelfContact:
+    """The penalty of :mod:`.contact` (mm, MPa). Every value is assumed, none measured:
+
+    - ``penalty_mpa_per_mm`` 10: contact pressure per mm of overlap. The fPN's walls meet at
+      about the cavity pressure (under 0.15 MPa in a build), so they overlap by under
+      0.015 mm, well under the 0.05 mm the overlap acceptance allows; 10 MPa/mm is ~10x the
+      stiffness of a 1 mm Elastosil wall (E/t ~ 1-2 MPa/mm), so the tangent stays well scaled.
+    - ``activation_mm`` 0.1: the force starts at this distance and grows smoothly (C2) to the
+      full penalty at touch, so a wall approaching over a load step meets no kink; a tenth of
+      the 1 mm wall, the gap it leaves between touching walls (``delta/2``) invisible at a
+      build's resolution.
+    - ``same_part_mm`` (1 mm, :data:`.overlap.SAME_PART_MM`): points and triangles closer than
+      this in the reference shape never pair (the same wall), as the overlap is measured; it
+      should exceed ``activation_mm``, or a surface would push on itself in a concave corner.
+    - ``max_penetration_mm`` 0.5: half the 1 mm wall; a slave deeper behind a triangle is
+      taken to be facing the wall's other side, not this triangle.
+    - ``facing`` 0.5: a slave pairs with a triangle only where it lies within 60 degrees of the
+      triangle's normal as seen from the triangle's nearest point (``|plane gap| >= facing *
+      distance``): a point beside a triangle (on its plane, past its edge) neither pushes nor
+      is pushed along the surface, while one behind an edge or a vertex still pairs.
+    """
+
+    penalty_mpa_per_mm: float = 10.0
+    activation_mm: float = 0.1
+    same_part_mm: float = SAME_PART_MM
+    max_penetration_mm: float = 0.5
+    facing: float = 0.5
+
+
+@dataclass
+class ContactTerms:
+    """The contact's share at one state: per pair its 9 scalar dofs (the slave's facet, then the
+    master triangle), its residual (27) and the upper triangle of its tangent (378, when asked);
+    the energy, the total normal force (N, as meshed) and the pairs' signed distances (mm)."""
+
+    gdofs: np.ndarray
+    residual: np.ndarray
+    tangent: np.ndarray | None
+    energy: float
+    force_n: float
+    gaps_mm: np.ndarray
+
+    @property
+    def pairs(self) -> int:
+        return int(self.gdofs.shape[0])
+
+
+def penalty(g: np.ndarray, k: float, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``phi(g)``, ``phi'(g)``, ``phi''(g)`` of the C2 penalty (module notes), per unit area."""
+    near = np.clip(delta - g, 0.0, delta)  # 0 beyond delta, delta at and below touch
+    over = np.minimum(g, 0.0)  # the overlap (negative)
+    phi = k * near ** 3 / (6 * delta) - k * delta * over / 2 + k * over ** 2 / 2
+    dphi = -k * near ** 2 / (2 * delta) + k * over
+    ddphi = k * near / delta
+    return phi, dphi, ddphi
+
+
+class ContactSurface:
+    """The slave points, master triangles and same-part pairs of a surface, fixed once.
+
+    ``X`` the P2 node positions (mm), ``facets`` (K, 6) the surface's P2 facets oriented outward
+    of the solid (corners, then midsides 01, 12, 02)."""
+
+    def __init__(self, X: np.ndarray, facets: np.ndarray, options: SelfContact):
+        self.options = options
+        self.facets = np.asarray(facets, dtype=np.int64)
+        self.triangles = self.facets[:, SUBTRIANGLES].reshape(-1, 3)
+        self.N, dN = _p2_shape(_POINTS)
+        Xf = X[self.facets]  # (K, 6, 3)
+        jac = np.cross(np.einsum("qa,kai->kqi", dN[:, 0], Xf), np.einsum("qa,kai->kqi", dN[:, 1], Xf))
+        #: reference area of each slave point (facet-major, 3 a facet)
+        self.area = (np.linalg.norm(jac, axis=2) / 6).ravel()
+        self._same = self._same_part(X)
+
+    def points(self, x: np.ndarray) -> np.ndarray:
+        """(3 K, 3) positions of the slave points with the nodes at ``x``."""
+        return np.einsum("qa,kai->kqi", self.N, x[self.facets]).reshape(-1, 3)
+
+    def _same_part(self, X: np.ndarray) -> np.ndarray:
+        """Sorted keys ``point * n_triangles + triangle`` of the pairs within ``same_part_mm``."""
+        p = X[self.triangles]
+        centroid = p.mean(axis=1)
+        radius = float(np.linalg.norm(p - centroid[:, None], axis=2).max())
+        points = self.points(X)
+        s, t = _near(points, centroid, self.options.same_part_mm + radius)
+        close = point_triangle_distance(points[s], p[t]) <= self.options.same_part_mm
+        return np.unique(s[close] * len(self.triangles) + t[close])
+
+    def pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each paired slave point, its master triangle's 3 nodes (turned, not flipped, to start
+        with the feature nearest the point) and that feature: 3 the face, 2 an edge, 1 a vertex."""
+        from trimesh.triangles import closest_point, points_to_barycentric
+
+        opt = self.options
+        p, xs_all = x[self.triangles], self.points(x)
+        centroid = p.mean(axis=1)
+        reach = max(opt.activation_mm, opt.max_penetration_mm)
+        s, t = _near(xs_all, centroid, float(np.linalg.norm(p - centroid[:, None], axis=2).max()) + reach)
+        key = s * len(self.triangles) + t
+        pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
+        keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
+        plane = plane_gap(xs_all[s], p[t])
+        keep &= np.abs(plane) < reach  # the distance is at least the plane's
+        s, t, plane = s[keep], t[keep], plane[keep]
+        closest = closest_point(p[t], xs_all[s])
+        dist = np.linalg.norm(xs_all[s] - closest, axis=1)
+        signed = np.where(plane < 0, -dist, dist)
+        ok = ((signed > -opt.max_penetration_mm) & (signed < opt.activation_mm)
+              & (np.abs(plane) >= opt.facing * dist))
+        s, t, dist, plane, closest = s[ok], t[ok], dist[ok], plane[ok], closest[ok]
+        order = np.lexsort((dist, s))  # per slave, the nearest triangle first
+        first = order[np.r_[True, s[order][1:] != s[order][:-1]]] if order.size else order
+        s, t, dist, plane, closest = s[first], t[first], dist[first], plane[first], closest[first]
+        on = points_to_barycentric(p[t], closest) > 1e-9
+        # where the face's plane is as near as the nearest point, the face (smooth across a flat
+        # surface's edges); else the edge or the vertex the nearest point lies on
+        on[dist - np.abs(plane) <= 1e-9 * np.maximum(dist, 1.0)] = True
+        feature = on.sum(axis=1)
+        start = np.where(feature == 2, (np.argmin(on, axis=1) + 1) % 3,
+                         np.where(feature == 1, np.argmax(on, axis=1), 0))
+        return s, self.triangles[t][np.arange(t.size)[:, None], (start[:, None] + np.arange(3)) % 3], feature
+
+    def terms(self, x: np.ndarray, want_k: bool) -> ContactTerms:
+        """The contact's energy, residual and tangent at the node positions ``x``."""
+        opt = self.options
+        s, master, feature = self.pairs(x)
+        g, grad, hess = signed_distance(np.concatenate([self.points(x)[s][:, None], x[master]], axis=1),
+                                        feature, want_k)
+        phi, dphi, ddphi = penalty(g, opt.penalty_mpa_per_mm, opt.activation_mm)
+        weight = 0.5 * self.area[s]  # two passes, half each
+        # the slave point x_q = sum_a N_qa x_a: its 3 coordinates spread over the facet's 6 nodes
+        N = self.N[s % len(_POINTS)]  # (n, 6)
+        spread = np.zeros((len(s), 9, 4))
+        spread[:, :6, 0] = N
+        spread[:, 6:, 1:] = np.eye(3)
+        grad = np.einsum("npa,nai->npi", spread, grad.reshape(-1, 4, 3)).reshape(-1, 27)
+        residual = (weight * dphi)[:, None] * grad
+        tangent = None
+        if want_k:
+            hess = np.einsum("npa,naibj,nqb->npiqj", spread, hess.reshape(-1, 4, 3, 4, 3), spread)
+            full = ((weight * ddphi)[:, None, None] * grad[:, :, None] * grad[:, None, :]
+                    + (weight * dphi)[:, None, None] * hess.reshape(-1, 27, 27))
+            tangent = np.ascontiguousarray(full[:, _UPPER[0], _UPPER[1]])
+        gdofs = np.column_stack([self.facets[s // len(_POINTS)], master])
+        return ContactTerms(gdofs, np.ascontiguousarray(residual), tangent, float(weight @ phi),
+                            float(-(weight * dphi).sum()), g)
+
+
+def outer_faces(boundary: np.ndarray, named: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The ``boundary`` triangles (k, 3) less the ``cavity`` and ``symmetry`` facets of ``named``."""
+    boundary = np.asarray(boundary, dtype=np.int64)
+    held = [np.asarray(named[k], np.int64) for k in (CAVITY, SYMMETRY) if len(named.get(k, ()))]
+    if not held:
+        return boundary
+    held = np.vstack(held)
+    n = int(max(boundary.max(), held.max())) + 1
+
+    def keys(f: np.ndarray) -> np.ndarray:
+        f = np.sort(f, axis=1)
+        return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
+
+    return boundary[~np.isin(keys(boundary), keys(held))]
+
+
+def _near(points: np.ndarray, centroids: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(point, centroid) index pairs within ``radius`` of each other (KD-trees)."""
+    found = cKDTree(points).sparse_distance_matrix(cKDTree(centroids), radius, output_type="ndarray")
+    return found["i"].astype(np.int64), found["j"].astype(np.int64)
