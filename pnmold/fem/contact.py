@@ -147,7 +147,7 @@ class ContactSurface:
         centroid = p.mean(axis=1)
         radius = float(np.linalg.norm(p - centroid[:, None], axis=2).max())
         points = self.points(X)
-        s, t = _near(points, centroid, self.options.same_part_mm + radius)
+        s, t, _ = _near(points, centroid, self.options.same_part_mm + radius)
         close = point_triangle_distance(points[s], p[t]) <= self.options.same_part_mm
         return np.unique(s[close] * len(self.triangles) + t[close])
 
@@ -160,7 +160,9 @@ class ContactSurface:
         p, xs_all = x[self.triangles], self.points(x)
         centroid = p.mean(axis=1)
         reach = max(opt.activation_mm, opt.max_penetration_mm)
-        s, t = _near(xs_all, centroid, float(np.linalg.norm(p - centroid[:, None], axis=2).max()) + reach)
+        radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1) + reach
+        s, t, apart = _near(xs_all, centroid, float(radius.max()))
+        s, t = s[apart <= radius[t]], t[apart <= radius[t]]
         key = s * len(self.triangles) + t
         pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
         keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
@@ -227,7 +229,7 @@ def outer_faces(boundary: np.ndarray, named: Mapping[str, np.ndarray]) -> np.nda
     return boundary[~np.isin(keys(boundary), keys(held))]
 
 
-def _near(points: np.ndarray, centroids: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """(point, centroid) index pairs within ``radius`` of each other (KD-trees)."""
+def _near(points: np.ndarray, centroids: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(point, centroid) index pairs within ``radius`` of each other, and their distance (KD-trees)."""
     found = cKDTree(points).sparse_distance_matrix(cKDTree(centroids), radius, output_type="ndarray")
-    return found["i"].astype(np.int64), found["j"].astype(np.int64)
+    return found["i"].astype(np.int64), found["j"].astype(np.int64), found["v"]

@@ -251,7 +251,8 @@ class Model:
         pos = np.clip(np.searchsorted(self._keys, keys), 0, self._keys.size - 1)
         missing = (keys >= 0) & (self._keys[pos] != keys)
         if missing.any():
-            grown = np.union1d(self._keys, keys[missing])
+            new = np.unique(keys[missing])  # few: np.union1d would sort the whole pattern again
+            grown = np.insert(self._keys, np.searchsorted(self._keys, new), new)
             moved = np.searchsorted(grown, self._keys).astype(np.int32)
             for name in ("kmap_solid", "kmap_mem", "kmap_cav"):
                 kmap = getattr(self, name, None)

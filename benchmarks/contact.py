@@ -1,0 +1,78 @@
+"""The build's FE of a design with self-contact against without: overlap, full bend, cost.
+
+Bends the design as ``pnmold build`` does (its preview mesh and options, gravity chambers up, to
+full bend or a stop) once without contact and once with :class:`pnmold.fem.SelfContact` (its
+assumed defaults, or ``--penalty``/``--activation``), and prints for each the end of the curve,
+the full-bend pressure, the wall time of the solve, factorisations and increments, and the
+overlap table of every converged step (:mod:`pnmold.fem.overlap`; the contact force and pairs
+with contact on).
+
+    .venv/bin/python benchmarks/contact.py [--design fpn] [--only on|off] [--max-kpa 150]
+                                           [--penalty 10] [--activation 0.1]
+
+``--max-kpa`` ends the curves at that pressure (the build's limit by default): with contact the
+fPN's tip meets its base before a full bend, and the curve then crawls with the tip pressed on it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from pnmold.design import load_design  # noqa: E402
+from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe  # noqa: E402
+from pnmold.export.p2 import quadratic_mesh  # noqa: E402
+from pnmold.fem import SelfContact  # noqa: E402
+from pnmold.fem.overlap import OVERLAP_DEPTH_MM, measure_overlap  # noqa: E402
+
+
+def solve(design, step: Path, contact: SelfContact | None, label: str, max_kpa: float):
+    """One build FE; prints its summary and overlap table; returns the run."""
+    options = dataclasses.replace(BUILD_OPTIONS, self_contact=contact)
+    t0 = time.perf_counter()
+    run = run_fe(design, step_path=step, size=BUILD_MESH, max_pressure_kpa=max_kpa,
+                 orientation="chambers_up", options=options, keep_partial=True)
+    wall = time.perf_counter() - t0
+    sol, stats = run.solution, run.solution.stats
+    end = f"full bend at {sol.full_bend_pressure_kpa:.2f} kPa" if sol.full_bend_pressure_kpa else sol.reason
+    print(f"[{label}] {end}; last step {sol.steps[-1].pressure_kpa:.2f} kPa, {sol.steps[-1].bend_angle_deg:.1f} deg; "
+          f"solve {stats['total_s']:.1f} s (mesh {run.timings_s['mesh']:.1f} s, wall {wall:.1f} s), "
+          f"{stats['increments']} increments, {stats['factorizations']} factorisations, {stats['cuts']} cuts")
+    qmesh = quadratic_mesh(run.mesh)
+    print(f"[{label}] {'kPa':>7} {'bend':>6} {'inside':>6} {'deeper':>6} {'max depth':>9}")
+    for step_, state in zip(sol.steps, sol.states, strict=True):
+        ov = measure_overlap(qmesh.nodes_mm, qmesh.cells, state)
+        print(f"[{label}] {step_.pressure_kpa:>7.2f} {step_.bend_angle_deg:>6.1f} {ov.nodes.size:>6} "
+              f"{ov.count(OVERLAP_DEPTH_MM):>6} {ov.max_depth_mm:>7.3f} mm")
+    return run
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--design", default="fpn")
+    parser.add_argument("--only", choices=("on", "off"))
+    parser.add_argument("--max-kpa", type=float, default=QUICK_MAX_PRESSURE_KPA)
+    parser.add_argument("--penalty", type=float, default=SelfContact.penalty_mpa_per_mm)
+    parser.add_argument("--activation", type=float, default=SelfContact.activation_mm)
+    args = parser.parse_args(argv)
+    design = load_design(args.design)
+    contact = SelfContact(penalty_mpa_per_mm=args.penalty, activation_mm=args.activation)
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run([sys.executable, "-m", "pnmold.cli", "build", args.design, "--no-fem", "--no-slicer",
+                        "--quiet", "--out", str(Path(tmp) / "b")], check=True)
+        step = Path(tmp) / "b" / "actuator.step"
+        if args.only != "on":
+            solve(design, step, None, "without contact", args.max_kpa)
+        if args.only != "off":
+            solve(design, step, contact, f"contact {args.penalty:g} MPa/mm, {args.activation:g} mm", args.max_kpa)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
