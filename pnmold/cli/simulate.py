@@ -8,6 +8,9 @@ from rich.markup import escape
 from pnmold.cli._common import add_design, emit_json, err_console, json_file, load, out_console, stages
 from pnmold.conventions import ORIENTATIONS, QUASI_STATIC_KINDS
 
+#: most rows printed to the console (half from each end; a logger's worth of rows goes to the files)
+PRINTED_ROWS = 200
+
 HELP = "quasi-static response (FE or reduced model) or step response, as JSON or a recording"
 DESCRIPTION = ("Solve the design's pressure curve with the FE model or the reduced model (--model rom, "
                "characterised by the FE once: templates ship theirs, others are cached): free bending, "
@@ -77,7 +80,14 @@ def run(args) -> int:
                        progress=say, vtu_dir=args.vtu).doc
     emit_json(args, doc)
     if not args.quiet:
-        for s in doc["steps"]:
+        steps = doc["steps"]
+        shown = steps if len(steps) <= PRINTED_ROWS else [*steps[:PRINTED_ROWS // 2], None,
+                                                           *steps[-PRINTED_ROWS // 2:]]
+        for s in shown:
+            if s is None:
+                out_console.print(f"   ... {len(steps) - PRINTED_ROWS} more rows (all {len(steps)} in the recording "
+                                  f"or the JSON)")
+                continue
             extra = f", force {s['force_n']:.3f} N" if "force_n" in s else ""
             out_console.print(f"{s['pressure_kpa']:8.2f} kPa: bend {s['bend_angle_deg']:7.1f} deg, tip "
                               f"({s['tip_x_mm']:.1f}, {s['tip_z_mm']:.1f}) mm, "

@@ -25,8 +25,10 @@ FAILED_Z = 1e4
 #: start points optimised from (more are screened by their misfit first)
 MAX_STARTS = 2
 #: forward results kept by their exact parameters (a held-out or bootstrap refit starts where
-#: the full fit ended: its first point and Jacobian columns repeat)
+#: the full fit ended: its first point and Jacobian columns repeat), at most this many and this many bytes
+#: (assumed: a tenth of a 2-core machine's memory; 512 predictions of 2000 rows take ~80 MB)
 KEPT_PREDICTIONS = 512
+KEPT_BYTES = 200_000_000
 
 #: forward(effects, calibration) -> one prediction (columns by name) per recording;
 #: ``effects`` holds ``name`` -> value and ``name.param`` -> value (docs/effects.md)
@@ -92,6 +94,20 @@ def zscores(data: DataSet, predictions: list[dict[str, np.ndarray]]) -> np.ndarr
     return np.concatenate(out)
 
 
+def owned(prediction: list[dict[str, np.ndarray]]) -> list[dict[str, np.ndarray]]:
+    """The prediction with every column an array of its own. A column the model returns as a view (the tip:
+    one node of the rod's (rows, nodes, 2) array) keeps the whole array it views alive: kept hundreds of
+    times, that was tens of floats a row per prediction, most of a diagnosis's memory."""
+    return [{k: np.array(v) if isinstance(v, np.ndarray) and v.base is not None else v for k, v in cols.items()}
+            for cols in prediction]
+
+
+def _nbytes(prediction: list[dict[str, np.ndarray]] | SolveError) -> int:
+    if isinstance(prediction, SolveError):
+        return 0
+    return sum(v.nbytes for cols in prediction for v in cols.values() if isinstance(v, np.ndarray))
+
+
 class Fitter:
     """Fits hypotheses to ``data`` through ``forward``; counts model evaluations (the forward
     runs: a prediction at parameters already evaluated is the kept one, the model being
@@ -102,6 +118,7 @@ class Fitter:
         self.forward = forward
         self.evaluations = 0
         self._kept: dict[tuple, list[dict[str, np.ndarray]] | SolveError] = {}
+        self._sizes: dict[tuple, int] = {}
 
     def predict(self, h: Hypothesis, x: np.ndarray) -> list[dict[str, np.ndarray]]:
         effects, calib = split_values(h, x)
@@ -109,11 +126,14 @@ class Fitter:
         if key not in self._kept:
             self.evaluations += 1
             try:
-                self._kept[key] = self.forward(effects, calib)
+                self._kept[key] = owned(self.forward(effects, calib))
             except SolveError as err:
                 self._kept[key] = err
-            if len(self._kept) > KEPT_PREDICTIONS:
-                del self._kept[next(iter(self._kept))]  # the oldest
+            self._sizes[key] = _nbytes(self._kept[key])
+            while len(self._kept) > 1 and (len(self._kept) > KEPT_PREDICTIONS
+                                           or sum(self._sizes.values()) > KEPT_BYTES):
+                oldest = next(iter(self._kept))
+                del self._kept[oldest], self._sizes[oldest]
         got = self._kept[key]
         if isinstance(got, SolveError):
             raise got

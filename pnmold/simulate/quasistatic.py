@@ -32,6 +32,13 @@ from pnmold.tetmesh import MeshSize
 
 SCHEMA = "pnmold.simulation/1"
 MODELS = ("fe", "rom")
+#: rows the reduced model solves at once in a simulation: its working arrays take about 9 kB a row at their
+#: peak (measured at 100 000 rows, benchmarks/big_recording.py), so a longer protocol is solved in stretches
+ROM_ROWS_AT_ONCE = 10_000
+#: effects whose state follows the whole pressure history (the protocol cannot be cut), and the most rows
+#: solved at once with one of them on (about 0.9 GB)
+HISTORY_EFFECTS = ("mullins", "viscoelasticity")
+HISTORY_ROWS = 100_000
 _STEP_KEYS = ("pressure_kpa", "tip_x_mm", "tip_z_mm", "bend_angle_deg", "cavity_volume_ml", "max_principal_stretch")
 
 
@@ -284,7 +291,42 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 def _run_to_maximum(model, protocol, effects) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The reduced model's rows, and which lie past the FE's pressure maximum (no equilibrium there
     under pressure control: left out of the document, said in its reason). Any other row without an
-    equilibrium is an error, as before."""
+    equilibrium is an error, as before. A protocol longer than :data:`ROM_ROWS_AT_ONCE` is solved in
+    stretches of that many rows when no history effect is on (each row's state is its pressure's alone:
+    the same rows), so its memory does not grow with the rows; with one on it is refused past
+    :data:`HISTORY_ROWS`."""
+    n = len(protocol)
+    if n <= ROM_ROWS_AT_ONCE:
+        return _run_whole(model, protocol, effects)
+    history = [name for name in HISTORY_EFFECTS if effects.get(name, 0.0) > 0]
+    if history:
+        if n > HISTORY_ROWS:
+            raise UsageError(f"--pressures and --cycles give {n} rows; with {', '.join(history)} on, the reduced "
+                             f"model follows the whole pressure history and solves every row at once (about 9 kB "
+                             f"of memory a row): at most {HISTORY_ROWS}. Use a coarser --pressures STEP.")
+        return _run_whole(model, protocol, effects)
+    parts = []
+    for a in range(0, n, ROM_ROWS_AT_ONCE):
+        out, past = _run_whole(model, _rows(protocol, a, min(a + ROM_ROWS_AT_ONCE, n)), effects)
+        # copies: a column that is a view (the tip, of the rod's (rows, nodes, 2) array) keeps all it views
+        parts.append(({k: np.array(v) for k, v in out.items()}, past))
+    out = {k: np.concatenate([part[k] for part, _ in parts]) for k in parts[0][0]}
+    return out, np.concatenate([past for _, past in parts])
+
+
+def _rows(protocol, a: int, b: int):
+    """Rows a..b of a :class:`~pnmold.physics.Protocol` (its time, cycle and phase with them)."""
+    from dataclasses import replace
+
+    def cut(v):
+        return None if v is None else v[a:b]
+
+    return replace(protocol, pressure_kpa=protocol.pressure_kpa[a:b], time_s=cut(protocol.times_s()),
+                   cycle=cut(protocol.cycle), phase=cut(protocol.phase))
+
+
+def _run_whole(model, protocol, effects) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """:func:`_run_to_maximum` of the protocol in one piece."""
     try:
         out = model.run(protocol, effects)
     except SolveError:
