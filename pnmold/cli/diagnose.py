@@ -66,7 +66,12 @@ def run(args) -> int:
         for r in diag.doc["recordings"]:
             for column, how in r.get("conversions", {}).items():
                 out_console.print(f"read {escape(r['path'])}: {escape(column)} {escape(how)}")
-        out_console.print(escape(diag.doc["summary"]))
+        reduced = [r["reduction"]["words"] for r in diag.doc["recordings"] if "reduction" in r]
+        summary = diag.doc["summary"]
+        for words in reduced:  # said first, on a line of its own
+            out_console.print(f"read {escape(words)}")
+            summary = summary.replace(words, "", 1).lstrip()
+        out_console.print(escape(summary))
         for m in diag.doc["mismatch"]:
             out_console.print(f"  mismatch: {escape(m['description'])}")
     return 0

@@ -31,7 +31,7 @@ def add_args(parser) -> None:
         "check", parents=[output_flags()], help="read recordings as pnmold diagnose does and say what was read",
         description="Read and validate recordings (a malformed one: exit 2 naming the file, line and column); "
         "print each one's kind, rows, orientation and the unit conversions made (pressure_psi -> pressure_kpa, "
-        "...).")
+        "...), and how pnmold diagnose reduces a recording too long to read row by row.")
     check.add_argument("recordings", nargs="+", metavar="RECORDING.csv")
     check.set_defaults(handler=run_check)
 
@@ -50,10 +50,16 @@ def run_template(args) -> int:
 
 def run_check(args) -> int:
     from pnmold.recording import read_recording
+    from pnmold.recording.reduce import check_size, reduce_recording
 
+    for path in args.recordings:
+        check_size(path)
     for path in args.recordings:
         rec = read_recording(path)
         say(f"{rec.path}: {rec.kind}, {len(rec)} rows, {rec.orientation}; columns {', '.join(rec.columns)}", args)
         for name, how in rec.conversions.items():
             say(f"  {name} {how}", args)
+        _, reduced = reduce_recording(rec)
+        if reduced is not None:  # what pnmold diagnose will read of it
+            say(f"  pnmold diagnose reduces it as it reads it: {reduced.words}", args)
     return 0

@@ -19,6 +19,7 @@ import numpy as np
 
 from pnmold.physics.protocol import read_by_volume
 from pnmold.recording import Recording
+from pnmold.recording.reduce import averaged_rows
 
 #: observables a diagnosis compares, per recording kind (in the recording's units)
 OBSERVABLES = {
@@ -63,7 +64,8 @@ class Series:
     branch: np.ndarray  # (n,) branch id of each row (global over the data set)
     block: np.ndarray  # (n,) block id of each row (global over the data set)
     rows: np.ndarray  # (n,) row indices in the recording
-    measurement: float = 0.0  # the measurement noise estimated from the data (same units)
+    measurement: float = 0.0  # the measurement noise estimated from the data (same units; RMS over a reduced
+    # recording's rows, each the recorded rows' noise over sqrt(the rows it averages))
     model_form: float = 0.0  # the model's form-error floor, RMS over the rows (same units)
     pressure_share: float = PRESSURE_FORM_SHARE  # the model's form error in pressure, a share of it
     design: float = 0.0  # the design's stated dimensional uncertainty, RMS over the rows (same units)
@@ -125,10 +127,18 @@ def branches_of(rec: Recording) -> np.ndarray:
     return out
 
 
-def noise_sigma(residual: np.ndarray, branch: np.ndarray, floor: float) -> float:
+def noise_sigma(residual: np.ndarray, branch: np.ndarray, floor: float, averaged: np.ndarray | None = None) -> float:
     """Noise from the scatter of second differences of ``residual`` within branches:
     for white noise of level s, y[i-1] - 2 y[i] + y[i+1] has standard deviation s sqrt(6);
-    the median absolute deviation keeps a few outliers or a knee from inflating it."""
+    the median absolute deviation keeps a few outliers or a knee from inflating it.
+
+    ``averaged``: per row, how many recorded rows it is the mean of (a reduced recording,
+    :mod:`pnmold.recording.reduce`). Row i then has the noise s / sqrt(k_i), each second difference
+    s sqrt(1/k[i-1] + 4/k[i] + 1/k[i+1]), and each is divided by its own factor: the result is s, the
+    noise of one recorded row, estimated from the kept rows' own scatter (noise that does not average
+    down, correlated in time, shows as a larger s: never overconfident)."""
+    if averaged is not None:
+        return _noise_averaged(residual, branch, floor, averaged)
     d2 = []
     for b in np.unique(branch):
         r = residual[branch == b]
@@ -139,6 +149,20 @@ def noise_sigma(residual: np.ndarray, branch: np.ndarray, floor: float) -> float
     d = np.concatenate(d2)
     mad = float(np.median(np.abs(d - np.median(d))))
     return max(1.4826 * mad / np.sqrt(6.0), floor)
+
+
+def _noise_averaged(residual: np.ndarray, branch: np.ndarray, floor: float, averaged: np.ndarray) -> float:
+    """:func:`noise_sigma` of rows that are means of ``averaged`` recorded rows each."""
+    d2 = []
+    for b in np.unique(branch):
+        on = branch == b
+        r, w = residual[on], 1.0 / averaged[on]
+        if r.size >= 3:
+            d2.append((r[:-2] - 2.0 * r[1:-1] + r[2:]) / np.sqrt(w[:-2] + 4.0 * w[1:-1] + w[2:]))
+    if not d2:
+        return floor
+    d = np.concatenate(d2)
+    return max(1.4826 * float(np.median(np.abs(d - np.median(d)))), floor)
 
 
 def repeat_sigma(residual: np.ndarray, rec: Recording) -> float | None:
@@ -233,7 +257,9 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
     (``pressure_form_share``) carried through its slope (:func:`pressure_form`). ``design_form``: per
     recording, observable -> per row, the standard deviation the design's stated dimensional uncertainty
     gives it (:class:`pnmold.physics.uncertainty.DesignFloor`), added in quadrature always. ``left_out``:
-    recording index -> rows the model cannot reach (no equilibrium), left out of every series."""
+    recording index -> rows the model cannot reach (no equilibrium), left out of every series. A reduced
+    recording's row (the mean of k recorded rows, :mod:`pnmold.recording.reduce`) has the measurement
+    noise of a recorded row over sqrt(k), or the scatter between its cycles where that is larger."""
     series: list[Series] = []
     branch0 = block0 = 0
     for i, rec in enumerate(recordings):
@@ -246,12 +272,15 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             block[idx] = nxt + np.arange(idx.size) * nblocks // idx.size
             nxt += nblocks
         rows = np.flatnonzero(~(left_out or {}).get(i, np.zeros(len(rec), bool)))
+        averaged = averaged_rows(rec)  # a reduced recording: each row's measurement noise over sqrt(its rows)
         for name in observables_of(rec):
             y = np.asarray(rec.columns[name], float)
             span = float(np.ptp(y)) if y.size else 1.0
             residual = np.where(np.isfinite(baseline[i][name]), y - baseline[i][name], 0.0)
-            repeats = repeat_sigma(residual, rec)
-            noise = max(noise_sigma(residual, branch, floor=1e-4 * max(span, 1e-9)), repeats or 0.0)
+            repeats = repeat_sigma(residual, rec)  # between cycles, of the rows as kept: it does not average down
+            noise = noise_sigma(residual, branch, 1e-4 * max(span, 1e-9), averaged)
+            noise = max(noise, repeats or 0.0) if averaged is None else np.maximum(noise / np.sqrt(averaged),
+                                                                                   repeats or 0.0)[rows]
             # in pressure directly where the pressure is the observable (read by volume)
             if name == "pressure_kpa" and rec.kind in QUASI_STATIC:
                 in_pressure = pressure_form_share * np.abs(y)
@@ -262,8 +291,9 @@ def build_dataset(recordings: list[Recording], baseline: list[dict[str, np.ndarr
             design = np.asarray(design_form[i].get(name, 0.0) if design_form else 0.0, float) * np.ones(len(rec))
             form, design = form[rows], design[rows]
             series.append(Series(i, name, y[rows], np.sqrt(noise ** 2 + form ** 2 + design ** 2),
-                                 branch[rows] + branch0, block[rows] + block0, rows, noise, _rms(form),
-                                 pressure_form_share, _rms(design)))
+                                 branch[rows] + branch0, block[rows] + block0, rows,
+                                 noise if averaged is None else _rms(noise), _rms(form), pressure_form_share,
+                                 _rms(design)))
         branch0 += int(branch.max(initial=0)) + 1
         block0 += int(block.max(initial=0)) + 1
     return DataSet(tuple(recordings), tuple(series))

@@ -10,13 +10,21 @@ import numpy as np
 
 from pnmold.design import Design
 from pnmold.recording import Recording, read_recording
+from pnmold.recording.reduce import Reduction, check_size, reduce_recording
 
 from .fitting import Forward
 
 
-def read_all(paths: Sequence[str | Path]) -> list[Recording]:
-    """Every recording, read and checked before anything is computed or written."""
-    return [read_recording(p) for p in paths]
+def read_all(paths: Sequence[str | Path], max_rows: int | None = None
+             ) -> tuple[list[Recording], list[Reduction | None]]:
+    """Every recording, read and checked before anything is computed or written; one longer than ``max_rows``
+    (default by kind: :data:`pnmold.recording.reduce.MAX_ROWS`) reduced as it is read
+    (:func:`pnmold.recording.reduce.reduce_recording`: its reduction, else None). A file too long to read is
+    refused before any is read."""
+    for p in paths:
+        check_size(p)
+    read = [reduce_recording(read_recording(p), max_rows) for p in paths]
+    return [rec for rec, _ in read], [how for _, how in read]
 
 
 def candidate_effects(recordings: Sequence[Recording], model: str = "rom") -> list:

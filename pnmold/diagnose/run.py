@@ -6,6 +6,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from pnmold.design import Design
+from pnmold.recording.reduce import Reduction
 
 from .core import Diagnosis, diagnose
 from .data import MODEL_FORM_SHARE, observables_of
@@ -18,20 +19,22 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
                         json_path: str | Path | None = None, report_dir: str | Path | None = None,
                         progress: Callable[[str], None] | None = None,
                         model_form_share: float = MODEL_FORM_SHARE,
-                        uncertain: Mapping[str, float] | None = None) -> Diagnosis:
+                        uncertain: Mapping[str, float] | None = None, max_rows: int | None = None) -> Diagnosis:
     """Read and check every recording (a damaged one stops the run before anything is computed
     or written), characterise the design in the FE once (cached; templates ship theirs; its
     stages go to ``progress``; with a force recording also its blocked tip), diagnose, and write the
     JSON and the report folder. ``uncertain``: design dimension -> its standard uncertainty in mm (a
     design read off a drawing): each costs a free FE run once, and what it changes becomes a floor under
-    the noise (:mod:`pnmold.physics.uncertainty`)."""
+    the noise (:mod:`pnmold.physics.uncertainty`). A recording of more than ``max_rows`` rows (default by
+    kind, :data:`pnmold.recording.reduce.MAX_ROWS`) is reduced as it is read (:mod:`pnmold.recording.reduce`),
+    said in the summary and in its ``recordings`` entry."""
     from pnmold.physics.characterise import uncertainty_runs
     from pnmold.physics.probes import characterised_for
     from pnmold.physics.uncertainty import DesignFloor, check_uncertain
 
     from .output import write_json_doc, write_report
 
-    recordings = read_all(paths)
+    recordings, reductions = read_all(paths, max_rows)
     uncertain = check_uncertain(design, uncertain or {})
     force = any(r.kind == "force" for r in recordings)  # the model's blocked tip matched to the FE's
     c = characterised_for(design, [r.kind for r in recordings], [r.orientation for r in recordings if r.kind != "step"],
@@ -61,6 +64,7 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     if floor is not None:
         _say_floor(diag, floor)
     _say_rest(diag, rest)
+    _say_reduced(diag, reductions)
     if json_path:
         write_json_doc(diag, json_path)
     if report_dir:
@@ -87,5 +91,15 @@ def _say_rest(diag: Diagnosis, checks: list[RestCheck]) -> None:
     """The rest rows' check in the JSON (``rest_check``) and, where one fails, its words first in the summary."""
     diag.doc["rest_check"] = [c.as_json() for c in checks]
     words = [c.words for c in checks if c.question]
+    if words:
+        diag.doc["summary"] = " ".join([*words, diag.doc["summary"]])
+
+
+def _say_reduced(diag: Diagnosis, reductions: Sequence[Reduction | None]) -> None:
+    """Each reduced recording's rule in its ``recordings`` entry (``reduction``) and, first, in the summary."""
+    for entry, how in zip(diag.doc["recordings"], reductions, strict=True):
+        if how is not None:
+            entry["reduction"] = how.as_json()
+    words = [how.words for how in reductions if how is not None]
     if words:
         diag.doc["summary"] = " ".join([*words, diag.doc["summary"]])
