@@ -110,6 +110,28 @@ def _cases() -> list[Case]:
         Case("checklist --out at a folder", ("checklist", "fpn", "--out", "{d}/raw"), codes=(74,)),
         Case("material fit --json under a file", ("material", "fit", str(SHARED / "ecoflex0030_uniaxial_tension.csv"),
                                                  "--json", "{d}/notes.txt/f.json"), codes=(74,)),
+        # doubtful input: refused or read with the reason
+        Case("recording: one pressure", ("diagnose", "fpn", "{d}/bad.csv"),
+             (("bad.csv", "pressure_kpa,tip_x_mm,tip_z_mm\n10,90,-5\n10,90.2,-5.1\n10,89.9,-4.9\n"),)),
+        Case("recording: every pressure negative", ("diagnose", "fpn", "{d}/bad.csv"),
+             (("bad.csv", "pressure_kpa,tip_x_mm,tip_z_mm\n-5,90,-5\n-10,80,-10\n-20,70,-20\n"),)),
+        Case("recording: a European spreadsheet", ("recording", "check", "{d}/eu.csv"),
+             (("eu.csv", "\ufeffpressure_kpa;tip_x_mm;tip_z_mm\r\n0;100,5;0\r\n10,5;90,25;-5,5\r\n"),), (0,)),
+        Case("recording: tab-separated", ("recording", "check", "{d}/tab.csv"),
+             (("tab.csv", "pressure_kpa\ttip_x_mm\ttip_z_mm\n0\t100\t0\n10\t90\t-5\n"),), (0,)),
+        Case("tensile: percent strain in a ratio column", ("material", "fit", "{d}/t.csv"),
+             (("t.csv", "eng_strain,eng_stress_mpa\n" + "".join(f"{e},{0.003 * e:.4f}\n"
+                                                                  for e in range(0, 600, 50))),)),
+        Case("design: a 96 MPa rubber", ("build", "--out", "{d}/b", "--set", "material.name=Labsil", "--set",
+                                         "material.c10_mpa=96", "--set", "material.c20_mpa=0", "--set",
+                                         "material.c30_mpa=0", "--set", "material.density_g_per_ml=1.1", "--set",
+                                         "material.mix_ratio_a_to_b=10")),
+        Case("simulate: 1 GPa with the reduced model", ("simulate", "fpn", "--model", "rom", "--pressures",
+                                                         "0:1000000:250000"), codes=(0,)),
+        Case("diagnose --report a file", ("diagnose", "fpn", "{d}/r.csv", "--report", "{d}/notes.txt")),
+        Case("build --out pnmold's folder holding a lab file", ("build", "--out", "{d}/b", "--no-fem"),
+             (("b/.pnmold-output", '{"schema": "pnmold.output/1", "what": "build", "files": ["a.txt"]}'),
+              ("b/a.txt", "pnmold's"), ("b/lab.csv", "the lab's"))),
         # good runs next to the lab's files: nothing of theirs touched
         Case("simulate --recording beside the lab's files", ("simulate", "fpn", "--model", "rom", "--kind", "bending",
                                                              "--recording", "{d}/new.csv"), codes=(0,)),
@@ -131,6 +153,7 @@ def _scratch(case: Case) -> Path:
     with sqlite3.connect(d / "lab.sqlite") as con:
         con.execute("CREATE TABLE samples (id INTEGER, value REAL)")
     for name, data in case.files:
+        (d / name).parent.mkdir(parents=True, exist_ok=True)
         (d / name).write_bytes(data if isinstance(data, bytes) else data.encode())
     return d
 

@@ -359,3 +359,14 @@ def test_doubtful_pressures_are_refused_or_warned_with_the_reason(tmp_path, pres
     else:
         warned = check_usable(rec)
         assert len(warned) == 1 and words in warned[0].message and not warned[0].refuse
+
+
+def test_diagnose_refuses_one_pressure_before_any_work_and_recording_check_warns(tmp_path, capsys):
+    flat = tmp_path / "flat.csv"
+    flat.write_text("pressure_kpa,tip_x_mm,tip_z_mm\n10,90,-5\n10,90.2,-5.1\n10,89.9,-4.9\n")
+    assert main(["diagnose", "fpn", str(flat), "--json", str(tmp_path / "d.json")]) == 2
+    assert "one pressure" in capsys.readouterr().err and not (tmp_path / "d.json").exists()
+    offset = tmp_path / "offset.csv"
+    offset.write_text("pressure_kpa,tip_x_mm,tip_z_mm\n0,100,0\n-3,100,0\n10,90,-5\n20,80,-10\n")
+    assert main(["recording", "check", str(offset)]) == 0
+    assert "below -1 kPa" in capsys.readouterr().err

@@ -5,7 +5,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from pnmold.cli._common import output_flags, say
+from rich.markup import escape
+
+from pnmold.cli._common import err_console, output_flags, say
 from pnmold.conventions import RECORDING_KINDS
 from pnmold.errors import UsageError
 
@@ -51,6 +53,7 @@ def run_template(args) -> int:
 def run_check(args) -> int:
     from pnmold.recording import read_recording
     from pnmold.recording.reduce import check_size, reduce_recording
+    from pnmold.recording.sanity import check_usable
 
     for path in args.recordings:
         check_size(path)
@@ -59,6 +62,9 @@ def run_check(args) -> int:
         say(f"{rec.path}: {rec.kind}, {len(rec)} rows, {rec.orientation}; columns {', '.join(rec.columns)}", args)
         for name, how in rec.conversions.items():
             say(f"  {name} {how}", args)
+        for doubt in check_usable(rec):  # a refusing doubt is raised: the diagnosis would refuse it too
+            err_console.print(f"[yellow]warning[/yellow] {escape(rec.path)}, column {doubt.column}: "
+                              f"{escape(doubt.message)}")
         _, reduced = reduce_recording(rec)
         if reduced is not None:  # what pnmold diagnose will read of it
             say(f"  pnmold diagnose reduces it as it reads it: {reduced.words}", args)

@@ -3,6 +3,7 @@ step model of :mod:`pnmold.pneumatics.model` for ``step`` recordings) and readin
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -11,8 +12,11 @@ import numpy as np
 from pnmold.design import Design
 from pnmold.recording import Recording, read_recording
 from pnmold.recording.reduce import Reduction, check_size, reduce_recording
+from pnmold.recording.sanity import check_usable
 
 from .fitting import Forward
+
+log = logging.getLogger(__name__)
 
 
 def read_all(paths: Sequence[str | Path], max_rows: int | None = None
@@ -23,7 +27,11 @@ def read_all(paths: Sequence[str | Path], max_rows: int | None = None
     refused before any is read."""
     for p in paths:
         check_size(p)
-    read = [reduce_recording(read_recording(p), max_rows) for p in paths]
+    recordings = [read_recording(p) for p in paths]
+    for rec in recordings:  # pressures a diagnosis cannot fit are refused here, doubtful ones said
+        for doubt in check_usable(rec):
+            log.warning("%s, column %s: %s", rec.path, doubt.column, doubt.message)
+    read = [reduce_recording(rec, max_rows) for rec in recordings]
     return [rec for rec, _ in read], [how for _, how in read]
 
 
