@@ -181,7 +181,7 @@ def test_the_pattern_grows_by_new_couplings_and_keeps_every_term_in_place():
     before = model.evaluate(u, load, want_k=True).matrix
     free = np.flatnonzero(model.free_index[0::3] >= 0)  # nodes whose x is free
     far = free[np.argsort(np.linalg.norm(model.X[free] - model.X[free[0]], axis=1))[[0, -1]]]
-    model._map_facets(far[None, :])  # a coupling no element has: the pattern grows by it
+    model.pattern.positions(far[None, :])  # a coupling no element has: the pattern grows by it
     after = model.evaluate(u, load, want_k=True).matrix
     assert after.nnz > before.nnz
     assert abs(after - before).max() == 0.0  # solid, sheet and pressure terms where they were

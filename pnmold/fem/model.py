@@ -1,5 +1,5 @@
-"""Discretisation: P2 tetrahedra from a :class:`TetMesh`, DOF numbering, the sparsity
-pattern of the reduced (free-DOF, upper-triangular) system and the scatter maps, built once.
+"""Discretisation: P2 tetrahedra from a :class:`TetMesh`, DOF numbering and the assembly of
+the reduced (free-DOF, upper-triangular) system into the sparsity pattern of :mod:`.pattern`.
 
 scikit-fem supplies the mesh, the P2 element, the quadrature, the reference gradients and
 the DOF numbering (scalar P2 dof ``s`` -> vector dofs ``3 s + i``; vertex ``v`` is dof
@@ -29,6 +29,7 @@ from ..tetmesh import BOTTOM_LAYER, CAVITY, FREE_END, STRAIN_LIMITING_LAYER, Tet
 from . import kernels, surface
 from .contact import ContactSurface, ContactTerms, SelfContact, outer_faces
 from .material import Membrane, Yeoh
+from .pattern import Pattern
 
 log = logging.getLogger(__name__)
 
@@ -162,7 +163,8 @@ class Model:
         self.free = np.flatnonzero(~self.fixed)
         self.free_index = np.full(self.ndof, -1, dtype=np.int64)
         self.free_index[self.free] = np.arange(self.free.size)
-        self._build_pattern()
+        #: the reduced tangent's sparsity pattern and each term's map into it (:mod:`.pattern`)
+        self.pattern = Pattern(self.edofs, self.free_index, self.free.size)
         self._build_membrane()
         self._build_pressure()
         ratio = np.repeat(self.density_ratio[:, None], self.wq.shape[1], axis=1)
@@ -173,7 +175,12 @@ class Model:
         self.contact_nodes = np.unique(cnodes) if cnodes is not None else np.zeros(0, int)
         self.contact = self._contact_surface(self_contact) if self_contact is not None else None
         log.info("P2 model: %d tets, %d unknowns, %d nonzeros (upper)", self.edofs.shape[0],
-                 self.free.size, self.indices.size)
+                 self.free.size, self.pattern.indices.size)
+
+    @property
+    def diag_pos(self) -> np.ndarray:
+        """Position of each free dof's diagonal entry in the tangent's data."""
+        return self.pattern.diag_pos
 
     # -- numbering ----------------------------------------------------------------------
     def _edge_lookup(self) -> tuple[np.ndarray, np.ndarray]:
@@ -223,45 +230,6 @@ class Model:
         faces = outer_faces(self.skmesh.facets[:, self.skmesh.boundary_facets()].T, self.mesh.facets)
         return ContactSurface(self.X, self._facet_dofs("contact surface", faces, warn=False), options)
 
-    # -- sparsity -----------------------------------------------------------------------
-    def _build_pattern(self) -> None:
-        keys = kernels.pair_keys(self.edofs, self.free_index, self.free.size)
-        valid = keys >= 0
-        uniq, inverse = np.unique(keys[valid], return_inverse=True)
-        kmap = np.full(keys.shape, -1, dtype=np.int32)
-        kmap[valid] = inverse
-        self.kmap_solid = kmap
-        self._set_pattern(uniq)
-
-    def _set_pattern(self, keys: np.ndarray) -> None:
-        """The reduced tangent's CSR pattern from its sorted keys ``row * nfree + col``."""
-        nfree = self.free.size
-        self._keys = keys
-        rows = keys // nfree
-        self.indices = (keys - rows * nfree).astype(np.int32)
-        self.indptr = np.zeros(nfree + 1, dtype=np.int32)
-        np.cumsum(np.bincount(rows, minlength=nfree), out=self.indptr[1:])
-        self.diag_pos = self.indptr[:-1].astype(np.int64)
-
-    def _map_facets(self, fdofs: np.ndarray) -> np.ndarray:
-        """Positions in the pattern of each entry of the elements ``fdofs``; the pattern grows
-        by the couplings it lacks (contact pairs, found as the shape moves: the linear solver
-        then analyses the new pattern once), the maps already made moved along."""
-        keys = kernels.pair_keys(fdofs, self.free_index, self.free.size)
-        pos = np.clip(np.searchsorted(self._keys, keys), 0, self._keys.size - 1)
-        missing = (keys >= 0) & (self._keys[pos] != keys)
-        if missing.any():
-            new = np.unique(keys[missing])  # few: np.union1d would sort the whole pattern again
-            grown = np.insert(self._keys, np.searchsorted(self._keys, new), new)
-            moved = np.searchsorted(grown, self._keys).astype(np.int32)
-            for name in ("kmap_solid", "kmap_mem", "kmap_cav"):
-                kmap = getattr(self, name, None)
-                if kmap is not None:
-                    setattr(self, name, np.where(kmap >= 0, moved[np.maximum(kmap, 0)], -1).astype(np.int32))
-            self._set_pattern(grown)
-            pos = np.searchsorted(self._keys, keys)
-        return np.where(keys >= 0, pos, -1).astype(np.int32)
-
     def _build_membrane(self) -> None:
         fd = self.facet_dofs.get(STRAIN_LIMITING_LAYER)
         if self.membrane is None or fd is None:
@@ -282,7 +250,7 @@ class Model:
         self.mem_nc = self.membrane.wrinkling_force_n_per_mm(self.substrate)
         self.mem_dNs = np.ascontiguousarray(dNs)
         self.mem_w = np.ascontiguousarray(area * wts)
-        self.kmap_mem = self._map_facets(fd)
+        self.pattern.add("mem", fd)
 
     def _build_pressure(self) -> None:
         fd = self.facet_dofs.get(CAVITY)
@@ -296,7 +264,7 @@ class Model:
         self.cav_dN = np.ascontiguousarray(dref.transpose(2, 0, 1))
         self.cav_w = np.ascontiguousarray(wts)
         self.cav_dofs = fd
-        self.kmap_cav = self._map_facets(fd)
+        self.pattern.add("cav", fd)
 
     # -- evaluation ---------------------------------------------------------------------
     def gravity_vector(self, gravity_n_per_mm3: Sequence[float]) -> np.ndarray:
@@ -327,8 +295,8 @@ class Model:
         R = np.zeros(self.ndof)
         Rext = np.zeros(self.ndof)
         touch = self.contact.terms(self.X + u.reshape(-1, 3), want_k) if self.contact is not None else None
-        kmap_touch = self._map_facets(touch.gdofs) if want_k and touch is not None else None
-        data = np.zeros(self.indices.size) if want_k else None
+        kmap_touch = self.pattern.positions(touch.gdofs) if want_k and touch is not None else None
+        data = np.zeros(self.pattern.indices.size) if want_k else None
         energy, inverted = self._solid(u, want_k, R, data, mixed)
         if inverted.size:
             return Evaluation(R, np.inf, False, 0.0, np.nan, 0.0, inverted=inverted)
@@ -356,7 +324,7 @@ class Model:
             if want_k:
                 fi = self.free_index[zdofs]
                 sel = (gap <= 0) & (fi >= 0)  # touching counts as closed: the tip starts on the plane
-                np.add.at(data, self.diag_pos[fi[sel]], k)
+                np.add.at(data, self.pattern.diag_pos[fi[sel]], k)
         if touch is not None:
             energy += self._self_contact(touch, kmap_touch, R, data)
         R += Rext
@@ -364,7 +332,7 @@ class Model:
         mtx = None
         if want_k:
             n = self.free.size
-            mtx = sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
+            mtx = sp.csr_matrix((data, self.pattern.indices, self.pattern.indptr), shape=(n, n))
         return Evaluation(R, energy, True, ext, volume, force, mtx, dvdu, np.zeros(0, np.int64),
                           wrinkled, touch.force_n if touch else 0.0, touch.pairs if touch else 0)
 
@@ -403,7 +371,7 @@ class Model:
             energy += W.sum()
             kernels.scatter_vector(Re, self.edofs[sl], R)
             if want_k:
-                kernels.scatter_matrix(Ke, self.kmap_solid[sl], data)
+                kernels.scatter_matrix(Ke, self.pattern.maps["solid"][sl], data)
         inverted = np.concatenate(bad_all) if bad_all else np.zeros(0, np.int64)
         return energy, inverted
 
@@ -421,7 +389,7 @@ class Model:
                          mb.wrinkles, want_k, use, sheet, W, Re, Ke, regime)
         kernels.scatter_vector(Re, self.mem_dofs, R)
         if want_k:
-            kernels.scatter_matrix(Ke, self.kmap_mem, data)
+            kernels.scatter_matrix(Ke, self.pattern.maps["mem"], data)
         return float(W.sum()), float(regime.sum()) / self.mem_w.size
 
     def _pressure(self, u: np.ndarray, p: float, want_k: bool, Rext: np.ndarray,
@@ -437,5 +405,5 @@ class Model:
             Rext += p * unit
             if want_k:
                 Ke *= p
-                kernels.scatter_matrix(Ke, self.kmap_cav, data)
+                kernels.scatter_matrix(Ke, self.pattern.maps["cav"], data)
         return float(V.sum()), -unit
