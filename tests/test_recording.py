@@ -370,3 +370,7 @@ def test_diagnose_refuses_one_pressure_before_any_work_and_recording_check_warns
     offset.write_text("pressure_kpa,tip_x_mm,tip_z_mm\n0,100,0\n-3,100,0\n10,90,-5\n20,80,-10\n")
     assert main(["recording", "check", str(offset)]) == 0
     assert "below -1 kPa" in capsys.readouterr().err
+    european = tmp_path / "eu.csv"
+    european.write_text("pressure_kpa;tip_x_mm;tip_z_mm\n0;100,5;0\n10,5;90,2;-5\n")
+    assert main(["recording", "check", str(european)]) == 0
+    assert "read as semicolon-separated, decimal comma" in capsys.readouterr().out

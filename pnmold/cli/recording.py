@@ -60,6 +60,8 @@ def run_check(args) -> int:
     for path in args.recordings:
         rec = read_recording(path)
         say(f"{rec.path}: {rec.kind}, {len(rec)} rows, {rec.orientation}; columns {', '.join(rec.columns)}", args)
+        if rec.layout != "comma-separated":
+            say(f"  read as {rec.layout}", args)
         for name, how in rec.conversions.items():
             say(f"  {name} {how}", args)
         for doubt in check_usable(rec):  # a refusing doubt is raised: the diagnosis would refuse it too
