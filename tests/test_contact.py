@@ -11,7 +11,7 @@ import pytest
 from skfem import MeshTet
 
 from pnmold.fem import Load, Membrane, Model, Newton, NewtonOptions, Yeoh, kernels
-from pnmold.fem.contact import SelfContact, penalty
+from pnmold.fem.contact import ContactSurface, SelfContact, facing_weight, pair_energy, penalty
 from pnmold.fem.gap import gap, signed_distance
 from tests.test_fem import TOL, check_tangent, closed_box, tetmesh
 
@@ -78,6 +78,90 @@ def test_the_penalty_is_c2_and_has_no_force_beyond_the_activation_distance():
     for f, df in ((0, 1), (1, 2)):
         plus, minus = penalty(g + h, k, delta)[f], penalty(g - h, k, delta)[f]
         np.testing.assert_allclose((plus - minus) / (2 * h), penalty(g, k, delta)[df], atol=1e-5)
+
+
+def test_the_facing_weight_is_c2_from_zero_to_one():
+    lo, hi = SelfContact().facing
+    c = np.array([0.0, lo - 1e-9, lo, lo + 1e-9, (lo + hi) / 2, hi - 1e-9, hi, hi + 1e-9, 1.0])
+    w, dw, ddw = facing_weight(c, lo, hi)
+    assert np.all(w[c <= lo] == 0) and np.all(w[c >= hi] == 1) and w[4] == pytest.approx(0.5)
+    np.testing.assert_allclose(dw[[1, 2, 3, 5, 6, 7]], 0.0, atol=1e-6)  # flat at both ends
+    np.testing.assert_allclose(ddw[[1, 2, 3, 5, 6, 7]], 0.0, atol=1e-5)
+    h = 1e-7
+    for f, df in ((0, 1), (1, 2)):
+        plus, minus = facing_weight(c + h, lo, hi)[f], facing_weight(c - h, lo, hi)[f]
+        # the third derivative jumps at both ends: a difference across them is off by O(h)
+        np.testing.assert_allclose((plus - minus) / (2 * h), facing_weight(c, lo, hi)[df], atol=1e-4)
+
+
+def beside_an_edge(feature: int, n: int, rng) -> np.ndarray:
+    """``n`` slaves beside the edge (0, 0, 0)-(1, 0, 0) of the triangle (0, 0, 0), (1, 0, 0),
+    (0, 1, 0) (feature 2), or beside its vertex at the origin (1), in front of it or behind,
+    within the activation distance and facing it at angles inside the weight's band."""
+    r = rng.uniform(0.02, 0.09, n) * rng.choice([-1.0, 1.0], n)
+    cos = rng.uniform(0.3, 0.7, n)
+    sin = np.sqrt(1 - cos ** 2)
+    out = np.array([1.0, 1.0]) / math.sqrt(2) if feature == 1 else np.array([0.0, 1.0])
+    xs = np.column_stack([0.4 * (feature == 2) - np.abs(r) * sin * out[0], -np.abs(r) * sin * out[1], r * cos])
+    tri = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    x = np.concatenate([xs[:, None], np.repeat(tri[None], n, axis=0)], axis=1)
+    return x + 0.003 * rng.standard_normal(x.shape)
+
+
+@pytest.mark.parametrize("feature", [2, 1], ids=["edge", "vertex"])
+def test_the_weighted_pair_energy_matches_finite_differences(feature, capsys):
+    rng = np.random.default_rng(10 + feature)
+    options = SelfContact()
+    x = beside_an_edge(feature, 8, rng)
+    features = np.full(len(x), feature)
+    e, grad, hess, g, w = pair_energy(x, features, options)
+    assert np.all((w > 0) & (w < 1)) and np.all(e > 0)  # every pair within the weight's band
+    assert np.any(g < 0) and np.any(g > 0)
+    h = 1e-7
+    worst = [0.0, 0.0]
+    for c in range(12):
+        dx = np.zeros((len(x), 12))
+        dx[:, c] = h
+        ep, gp, _, _, _ = pair_energy(x + dx.reshape(x.shape), features, options, want_hessian=False)
+        em, gm, _, _, _ = pair_energy(x - dx.reshape(x.shape), features, options, want_hessian=False)
+        fd_grad, fd_hess = (ep - em) / (2 * h), (gp - gm) / (2 * h)
+        worst = [max(worst[0], float(np.abs(fd_grad - grad[:, c]).max() / np.abs(grad).max())),
+                 max(worst[1], float(np.abs(fd_hess - hess[:, :, c]).max() / np.abs(hess).max()))]
+        np.testing.assert_allclose(fd_grad, grad[:, c], rtol=1e-5, atol=1e-7 * np.abs(grad).max())
+        np.testing.assert_allclose(fd_hess, hess[:, :, c], rtol=1e-4, atol=1e-5 * np.abs(hess).max())
+    np.testing.assert_allclose(hess, hess.transpose(0, 2, 1), atol=1e-9 * np.abs(hess).max())
+    with capsys.disabled():
+        print(f"\n[weighted pair, feature {feature}] finite differences against the analytic: gradient "
+              f"{worst[0]:.1e}, Hessian {worst[1]:.1e} of their largest entries; weights {w.min():.2f}-{w.max():.2f}")
+
+
+def test_a_point_rounding_the_edge_of_a_surface_meets_no_jump_in_energy():
+    """A small facet swept past the open edge of a flat one, from above its face to beside it:
+    the energy changes along the sweep as its gradient says (trapezoid rule), with no jump where
+    a pair comes or goes (a hard cut on the facing angle would jump there)."""
+    corners = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0],
+                        [0.0, 0.0, 5.0], [0.02, 0.0, 5.0], [0.0, 0.02, 5.0]])
+    mid = lambda a, b: (corners[a] + corners[b]) / 2  # noqa: E731
+    X = np.vstack([corners, mid(0, 1), mid(1, 2), mid(0, 2), mid(3, 4), mid(4, 5), mid(3, 5)])
+    surface = ContactSurface(X, np.array([[0, 1, 2, 6, 7, 8], [3, 4, 5, 9, 10, 11]]), SelfContact())
+    moving = np.arange(12) % 6 >= 3
+    angles = np.linspace(0.0, 0.5 * math.pi, 400)  # about the x axis, the big facet's edge y = 0
+    energy, slope = [], []
+    for a in angles:
+        rel = X[moving] - X[3] + [1.0, 0.0, 0.0]
+        at = np.array([0.0, -math.sin(a), math.cos(a)]) * 0.06  # 0.06 mm from the edge
+        x = X.copy()
+        x[moving] = rel + at
+        terms = surface.terms(x, want_k=False)
+        R = np.zeros(x.size)
+        np.add.at(R, (3 * terms.gdofs[:, :, None] + np.arange(3)).ravel(), terms.residual.ravel())
+        d_at = np.array([0.0, -math.cos(a), -math.sin(a)]) * 0.06
+        energy.append(terms.energy)
+        slope.append(float(R.reshape(-1, 3)[moving].sum(axis=0) @ d_at))
+    energy, slope = np.array(energy), np.array(slope)
+    assert energy[0] > 0 and energy[-1] == 0  # above the face it presses; beside it, none
+    predicted = np.diff(angles) * (slope[1:] + slope[:-1]) / 2
+    assert np.abs(np.diff(energy) - predicted).max() < 0.02 * energy.max()
 
 
 def blocks() -> object:

@@ -16,17 +16,20 @@ two facing surfaces pressed together carry the penalty ``penalty_mpa_per_mm`` on
 trial of its line search, so residual, tangent and energy at one state use the same pairs):
 a KD-tree of the masters' deformed centroids gives each slave its candidates; those of *the
 same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:`.overlap`;
-found once) are dropped; of the rest, the triangle nearest the slave is its pair where the
-slave faces it (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
+found once) are dropped; of the rest, the triangle nearest the slave is its pair (of triangles as
+near, around the edge or vertex nearest it, the one it faces most squarely) where the slave faces
+it at all (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
 activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex).
 
-**Penalty.** Per pair ``w A_q phi(g)``: ``A_q`` the slave point's reference area, ``w = 1/2``
-(two passes), ``phi'' = k (delta - g) / delta`` between ``g = delta`` and 0 and ``phi'' = k``
-below: C2, no force beyond the activation distance ``delta``, a contact pressure ``k (delta/2 -
-g)`` once the surfaces overlap, so a contact pressed at ``P`` sits at ``g = delta/2 - P/k`` (at
-``g = delta - sqrt(2 delta P / k)`` while ``P < k delta / 2``). Its tangent is exact (the
-distance's Hessian through the slave point's shape functions), so Newton converges
-quadratically once the pairs settle (``tests/test_contact.py`` prints the residuals).
+**Penalty.** Per pair ``A_q w(c) phi(g) / 2``: ``A_q`` the slave point's reference area, halved
+(two passes), ``w(c)`` the C2 facing weight of an edge or vertex pair (1 for a face pair;
+:func:`pair_energy` carries its derivatives), ``phi'' = k (delta - g) / delta`` between
+``g = delta`` and 0 and ``phi'' = k`` below: C2, no force beyond the activation distance
+``delta``, a contact pressure ``k (delta/2 - g)`` once the surfaces overlap, so a contact pressed
+at ``P`` sits at ``g = delta/2 - P/k`` (at ``g = delta - sqrt(2 delta P / k)`` while ``P < k delta
+/ 2``). Its tangent is exact (the distance's and the facing cosine's Hessians through the slave
+point's shape functions), so Newton converges quadratically once the pairs settle
+(``tests/test_contact.py`` prints the residuals).
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..tetmesh import CAVITY, SYMMETRY
-from .gap import plane_gap, signed_distance
+from .gap import gap, plane_gap, signed_distance
 from .overlap import SAME_PART_MM, point_triangle_distance
 
 #: the 4 flat triangles of a 6-node facet (corners 0-2, midsides 01, 12, 02), oriented as it
@@ -79,17 +82,20 @@ class SelfContact:
       should exceed ``activation_mm``, or a surface would push on itself in a concave corner.
     - ``max_penetration_mm`` 0.5: half the 1 mm wall; a slave deeper behind a triangle is
       taken to be facing the wall's other side, not this triangle.
-    - ``facing`` 0.5: a slave pairs with a triangle only where it lies within 60 degrees of the
-      triangle's normal as seen from the triangle's nearest point (``|plane gap| >= facing *
-      distance``): a point beside a triangle (on its plane, past its edge) neither pushes nor
-      is pushed along the surface, while one behind an edge or a vertex still pairs.
+    - ``facing`` (0.25, 0.75): an edge or vertex pair is weighed by how squarely the slave faces
+      the triangle, ``c = plane gap / distance`` (the cosine of the angle between the triangle's
+      normal and the line from its nearest point to the slave): 0 up to ``c = 0.25`` (76 degrees:
+      a point beside a triangle, on its plane past its edge, neither pushes nor is pushed along
+      the surface), 1 from ``c = 0.75`` (41 degrees), a C2 quintic between, so a pair comes and
+      goes without a jump in force or stiffness; a face pair has ``c = 1``. The band is set
+      about the 60 degrees (0.5) of a hard cut, wide enough to span a load increment's turn.
     """
 
     penalty_mpa_per_mm: float = 10.0
     activation_mm: float = 0.1
     same_part_mm: float = SAME_PART_MM
     max_penetration_mm: float = 0.5
-    facing: float = 0.5
+    facing: tuple[float, float] = (0.25, 0.75)
 
 
 @dataclass
@@ -118,6 +124,51 @@ def penalty(g: np.ndarray, k: float, delta: float) -> tuple[np.ndarray, np.ndarr
     dphi = -k * near ** 2 / (2 * delta) + k * over
     ddphi = k * near / delta
     return phi, dphi, ddphi
+
+
+def facing_weight(c: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The C2 weight of :attr:`SelfContact.facing` at ``c`` (0 up to ``lo``, 1 from ``hi``, the
+    quintic smoothstep between), and its first and second derivatives in ``c``."""
+    t = np.clip((c - lo) / (hi - lo), 0.0, 1.0)
+    w = t ** 3 * (10 - 15 * t + 6 * t ** 2)
+    dw = 30 * t ** 2 * (1 - t) ** 2 / (hi - lo)
+    ddw = 60 * t * (1 - t) * (1 - 2 * t) / (hi - lo) ** 2
+    return w, dw, ddw
+
+
+def pair_energy(x: np.ndarray, feature: np.ndarray, options: SelfContact, want_hessian: bool = True
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
+    """Per unit area, the energy ``w(c) phi(g)`` of each pair ``x`` (n, 4, 3: the slave, then the
+    master triangle turned as :meth:`ContactSurface.pairs` turns it) by its ``feature``; its
+    gradient (n, 12) and Hessian (n, 12, 12), the signed distance ``g`` and the weight ``w``.
+    ``c = P / g`` with ``P`` the plane gap (:func:`.gap.gap`), 1 for a face pair."""
+    opt = options
+    g, dg, hg = signed_distance(x, feature, want_hessian)
+    phi, dphi, ddphi = penalty(g, opt.penalty_mpa_per_mm, opt.activation_mm)
+    grad = dphi[:, None] * dg
+    hess = (ddphi[:, None, None] * dg[:, :, None] * dg[:, None, :] + dphi[:, None, None] * hg
+            if want_hessian else None)
+    w = np.ones(len(g))
+    side = np.flatnonzero((feature != 3) & (np.abs(g) > 1e-12))
+    if side.size:
+        P, dP, hP = gap(x[side], want_hessian)
+        gs, dgs = g[side], dg[side]
+        c = P / gs
+        w[side], dw, ddw = facing_weight(c, *opt.facing)
+        dc = dP / gs[:, None] - (P / gs ** 2)[:, None] * dgs
+        f, df = phi[side], dphi[side]
+        grad[side] = w[side, None] * grad[side] + (dw * f)[:, None] * dc
+        if want_hessian:
+            hgs = hg[side]
+            cross = dP[:, :, None] * dgs[:, None, :]
+            hc = (hP / gs[:, None, None] - (cross + cross.transpose(0, 2, 1)) / (gs ** 2)[:, None, None]
+                  - (P / gs ** 2)[:, None, None] * hgs
+                  + (2 * P / gs ** 3)[:, None, None] * dgs[:, :, None] * dgs[:, None, :])
+            mixed = dc[:, :, None] * dgs[:, None, :]
+            hess[side] = (w[side, None, None] * hess[side] + (ddw * f)[:, None, None] * dc[:, :, None] * dc[:, None, :]
+                          + (dw * df)[:, None, None] * (mixed + mixed.transpose(0, 2, 1))
+                          + (dw * f)[:, None, None] * hc)
+    return w * phi, grad, hess, g, w
 
 
 class ContactSurface:
@@ -172,10 +223,16 @@ class ContactSurface:
         closest = closest_point(p[t], xs_all[s])
         dist = np.linalg.norm(xs_all[s] - closest, axis=1)
         signed = np.where(plane < 0, -dist, dist)
-        ok = ((signed > -opt.max_penetration_mm) & (signed < opt.activation_mm)
-              & (np.abs(plane) >= opt.facing * dist))
-        s, t, dist, plane, closest = s[ok], t[ok], dist[ok], plane[ok], closest[ok]
-        order = np.lexsort((dist, s))  # per slave, the nearest triangle first
+        weight = facing_weight(np.abs(plane) / np.maximum(dist, 1e-300), *opt.facing)[0]
+        ok = (signed > -opt.max_penetration_mm) & (signed < opt.activation_mm) & (weight > 0)
+        s, t, dist, plane, closest, weight = s[ok], t[ok], dist[ok], plane[ok], closest[ok], weight[ok]
+        # per slave the nearest triangle; of those as near (the triangles around the edge or the
+        # vertex nearest it), the one it faces most squarely, so the energy stays continuous
+        nearest = np.full(len(xs_all), np.inf)
+        np.minimum.at(nearest, s, dist)
+        tied = dist <= nearest[s] * (1 + 1e-9) + 1e-12
+        s, t, dist, plane, closest, weight = s[tied], t[tied], dist[tied], plane[tied], closest[tied], weight[tied]
+        order = np.lexsort((-weight, s))
         first = order[np.r_[True, s[order][1:] != s[order][:-1]]] if order.size else order
         s, t, dist, plane, closest = s[first], t[first], dist[first], plane[first], closest[first]
         on = points_to_barycentric(p[t], closest) > 1e-9
@@ -191,9 +248,8 @@ class ContactSurface:
         """The contact's energy, residual and tangent at the node positions ``x``."""
         opt = self.options
         s, master, feature = self.pairs(x)
-        g, grad, hess = signed_distance(np.concatenate([self.points(x)[s][:, None], x[master]], axis=1),
-                                        feature, want_k)
-        phi, dphi, ddphi = penalty(g, opt.penalty_mpa_per_mm, opt.activation_mm)
+        phi, grad, hess, g, w = pair_energy(np.concatenate([self.points(x)[s][:, None], x[master]], axis=1),
+                                            feature, opt, want_k)
         weight = 0.5 * self.area[s]  # two passes, half each
         # the slave point x_q = sum_a N_qa x_a: its 3 coordinates spread over the facet's 6 nodes
         N = self.N[s % len(_POINTS)]  # (n, 6)
@@ -201,16 +257,16 @@ class ContactSurface:
         spread[:, :6, 0] = N
         spread[:, 6:, 1:] = np.eye(3)
         grad = np.einsum("npa,nai->npi", spread, grad.reshape(-1, 4, 3)).reshape(-1, 27)
-        residual = (weight * dphi)[:, None] * grad
+        residual = weight[:, None] * grad
         tangent = None
         if want_k:
             hess = np.einsum("npa,naibj,nqb->npiqj", spread, hess.reshape(-1, 4, 3, 4, 3), spread)
-            full = ((weight * ddphi)[:, None, None] * grad[:, :, None] * grad[:, None, :]
-                    + (weight * dphi)[:, None, None] * hess.reshape(-1, 27, 27))
+            full = weight[:, None, None] * hess.reshape(-1, 27, 27)
             tangent = np.ascontiguousarray(full[:, _UPPER[0], _UPPER[1]])
         gdofs = np.column_stack([self.facets[s // len(_POINTS)], master])
+        pressure = -penalty(g, opt.penalty_mpa_per_mm, opt.activation_mm)[1]  # along the normal, weighed
         return ContactTerms(gdofs, np.ascontiguousarray(residual), tangent, float(weight @ phi),
-                            float(-(weight * dphi).sum()), g)
+                            float((weight * w) @ pressure), g)
 
 
 def outer_faces(boundary: np.ndarray, named: Mapping[str, np.ndarray]) -> np.ndarray:
