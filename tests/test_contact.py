@@ -135,15 +135,22 @@ def test_the_weighted_pair_energy_matches_finite_differences(feature, capsys):
               f"{worst[0]:.1e}, Hessian {worst[1]:.1e} of their largest entries; weights {w.min():.2f}-{w.max():.2f}")
 
 
+def two_facets(apart_mm: float, size_mm: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """A flat P2 facet at x 0..4 (z = 0, facing +z) and a small one (``size_mm``) ``apart_mm``
+    further along x (z = 5, far from it), as reference node positions and facets."""
+    corners = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0],
+                        [apart_mm, 0.0, 5.0], [apart_mm + size_mm, 0.0, 5.0], [apart_mm, size_mm, 5.0]])
+    edges = ((0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5))
+    X = np.vstack([corners, *[(corners[a] + corners[b]) / 2 for a, b in edges]])
+    return X, np.array([[0, 1, 2, 6, 7, 8], [3, 4, 5, 9, 10, 11]])
+
+
 def test_a_point_rounding_the_edge_of_a_surface_meets_no_jump_in_energy():
     """A small facet swept past the open edge of a flat one, from above its face to beside it:
     the energy changes along the sweep as its gradient says (trapezoid rule), with no jump where
     a pair comes or goes (a hard cut on the facing angle would jump there)."""
-    corners = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0],
-                        [0.0, 0.0, 5.0], [0.02, 0.0, 5.0], [0.0, 0.02, 5.0]])
-    mid = lambda a, b: (corners[a] + corners[b]) / 2  # noqa: E731
-    X = np.vstack([corners, mid(0, 1), mid(1, 2), mid(0, 2), mid(3, 4), mid(4, 5), mid(3, 5)])
-    surface = ContactSurface(X, np.array([[0, 1, 2, 6, 7, 8], [3, 4, 5, 9, 10, 11]]), SelfContact())
+    X, facets = two_facets(0.0, 0.02)
+    surface = ContactSurface(X, facets, SelfContact())
     moving = np.arange(12) % 6 >= 3
     angles = np.linspace(0.0, 0.5 * math.pi, 400)  # about the x axis, the big facet's edge y = 0
     energy, slope = [], []
@@ -162,6 +169,34 @@ def test_a_point_rounding_the_edge_of_a_surface_meets_no_jump_in_energy():
     assert energy[0] > 0 and energy[-1] == 0  # above the face it presses; beside it, none
     predicted = np.diff(angles) * (slope[1:] + slope[:-1]) / 2
     assert np.abs(np.diff(energy) - predicted).max() < 0.02 * energy.max()
+
+
+@pytest.mark.parametrize("apart", [2.0, 12.0], ids=["neighbours", "the-two-ends"])
+def test_the_ends_meet_where_a_pair_joins_points_half_the_body_apart(apart):
+    X, facets = two_facets(apart)
+    surface = ContactSurface(X, facets, SelfContact())
+    x = X.copy()
+    small = np.arange(len(X)) % 6 >= 3
+    x[small] += [1.0 - apart, 1.0, -4.97]  # the small facet 0.03 mm above the big one
+    terms = surface.terms(x, want_k=False)
+    pairs, force = surface.ends_meet(x, X)
+    assert terms.pairs > 0 and terms.force_n > 0
+    length = np.ptp(X[:, 0])
+    if apart > length / 2:  # the small facet is as far from the big one as the body is long
+        assert pairs == terms.pairs and force == pytest.approx(terms.force_n, rel=1e-12)
+    else:
+        assert pairs == 0 and force == 0.0
+    assert surface.ends_meet(X, X) == (0, 0.0)  # apart in the reference shape: no pair at all
+
+
+def test_a_curve_whose_ends_meet_is_named_and_says_where():
+    from pnmold.fem.results import STOPS, Step
+    from pnmold.fem.solver import _stop
+
+    step = Step(40.6, 10.0, 5.0, 329.0, 30.0, 1.8, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    stop, reason, fb = _stop("stopped", [step], {"ends_meet": (step, 3, 0.012)}, False, 3.0)
+    assert stop == "tip_meets_base" and stop in STOPS and fb is None
+    assert "40.6 kPa" in reason and "329.0 deg" in reason and "3 contact pairs" in reason
 
 
 def blocks() -> object:

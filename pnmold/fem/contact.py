@@ -89,6 +89,11 @@ class SelfContact:
       the surface), 1 from ``c = 0.75`` (41 degrees), a C2 quintic between, so a pair comes and
       goes without a jump in force or stiffness; a face pair has ``c = 1``. The band is set
       about the 60 degrees (0.5) of a hard cut, wide enough to span a load increment's turn.
+    - ``stop_where_ends_meet``: a bending curve ends (stop ``tip_meets_base``) at the first
+      converged state where a pair joins points more than half the body's length apart along x
+      in the reference shape (:meth:`ContactSurface.ends_meet`): the free end pressed on the
+      clamped end. Half the length is assumed: walls meeting across a chamber gap are a few mm
+      apart, the two ends about the length.
     """
 
     penalty_mpa_per_mm: float = 10.0
@@ -96,13 +101,15 @@ class SelfContact:
     same_part_mm: float = SAME_PART_MM
     max_penetration_mm: float = 0.5
     facing: tuple[float, float] = (0.25, 0.75)
+    stop_where_ends_meet: bool = True
 
 
 @dataclass
 class ContactTerms:
     """The contact's share at one state: per pair its 9 scalar dofs (the slave's facet, then the
     master triangle), its residual (27) and the upper triangle of its tangent (378, when asked);
-    the energy, the total normal force (N, as meshed) and the pairs' signed distances (mm)."""
+    the energy, the total normal force (N, as meshed), and per pair the signed distance (mm), the
+    slave point and the facing weight."""
 
     gdofs: np.ndarray
     residual: np.ndarray
@@ -110,6 +117,8 @@ class ContactTerms:
     energy: float
     force_n: float
     gaps_mm: np.ndarray
+    slaves: np.ndarray
+    facing: np.ndarray
 
     @property
     def pairs(self) -> int:
@@ -266,7 +275,21 @@ class ContactSurface:
         gdofs = np.column_stack([self.facets[s // len(_POINTS)], master])
         pressure = -penalty(g, opt.penalty_mpa_per_mm, opt.activation_mm)[1]  # along the normal, weighed
         return ContactTerms(gdofs, np.ascontiguousarray(residual), tangent, float(weight @ phi),
-                            float((weight * w) @ pressure), g)
+                            float((weight * w) @ pressure), g, s, w)
+
+    def ends_meet(self, x: np.ndarray, X: np.ndarray) -> tuple[int, float]:
+        """The pairs at the node positions ``x`` whose slave facet and master triangle lie more than
+        half the body's length apart along x in the reference positions ``X`` (the free end on
+        the clamped end, :attr:`SelfContact.stop_where_ends_meet`), and their normal force (N,
+        as meshed)."""
+        terms = self.terms(x, want_k=False)
+        if not terms.pairs:
+            return 0, 0.0
+        apart = np.abs(X[terms.gdofs[:, :6], 0].mean(axis=1) - X[terms.gdofs[:, 6:], 0].mean(axis=1))
+        far = apart > 0.5 * np.ptp(X[:, 0])
+        opt = self.options
+        pressure = -penalty(terms.gaps_mm[far], opt.penalty_mpa_per_mm, opt.activation_mm)[1]
+        return int(far.sum()), float((0.5 * self.area[terms.slaves[far]] * terms.facing[far]) @ pressure)
 
 
 def outer_faces(boundary: np.ndarray, named: Mapping[str, np.ndarray]) -> np.ndarray:

@@ -77,8 +77,8 @@ class PressureMaximum:
 
 
 #: why a curve ended: the physical stops, and a solver failure
-STOPS = ("full_bend", "pressure_limit", "pressure_maximum", "stretch_limit", "instability",
-         "targets", "failed")
+STOPS = ("full_bend", "pressure_limit", "pressure_maximum", "stretch_limit", "tip_meets_base",
+         "instability", "targets", "failed")
 
 
 @dataclass(frozen=True, eq=False)

@@ -177,7 +177,8 @@ class _Curve:
         self.found: dict[str, object] = {}
 
     def report(self, state: State) -> tuple[bool, float]:
-        """Record a converged state; whether the curve stops there (stretch, full bend)."""
+        """Record a converged state; whether the curve stops there (stretch, the tip on the base
+        with self-contact, full bend)."""
         setup, blocked, max_stretch = self.setup, self.blocked, self.max_stretch
         step = setup.observer.step(1000.0 * state.p, state.u, state.ev, blocked)
         self.steps.append(step)
@@ -189,6 +190,12 @@ class _Curve:
         if max_stretch is not None and step.max_principal_stretch > max_stretch:
             self.found["stretch"] = step
             return True, step.bend_angle_deg
+        touch = setup.model.contact
+        if touch is not None and touch.options.stop_where_ends_meet and not blocked and state.p > 0:
+            pairs, force = touch.ends_meet(setup.model.X + state.u.reshape(-1, 3), setup.model.X)
+            if pairs:
+                self.found["ends_meet"] = (step, pairs, force * setup.observer.scale)
+                return True, step.bend_angle_deg
         full = (setup.options.stop_at_full_bend and not blocked
                 and step.bend_angle_deg >= FULL_BEND_DEG)
         return full, step.bend_angle_deg
@@ -322,6 +329,12 @@ def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
             f"the largest principal stretch {s.max_principal_stretch:.3g} at ({x:.1f}, {y:.1f}, "
             f"{z:.1f}) mm passed the material's stretch at break {max_stretch:.3g} at "
             f"{s.pressure_kpa:.4g} kPa and {s.bend_angle_deg:.1f} deg"), fb
+    if "ends_meet" in found:
+        s, pairs, force = found["ends_meet"]
+        return "tip_meets_base", (
+            f"the free end meets the clamped end at {s.pressure_kpa:.4g} kPa and {s.bend_angle_deg:.1f} deg "
+            f"({pairs} contact pairs carrying {force:.3g} N): the actuator's own body stops the bend "
+            "there; the curve ends there"), fb
     if why == "instability":
         s = found["instability"]
         return "instability", (
@@ -371,7 +384,8 @@ def solve_bending(mesh: TetMesh, material: Yeoh = ELASTOSIL_M4601,
     Returns
     -------
     Solution : the steps up to full bend or another named stop (``Solution.stop``:
-        ``full_bend``, ``pressure_limit``, ``pressure_maximum``, ``stretch_limit``, ``instability``,
+        ``full_bend``, ``pressure_limit``, ``pressure_maximum``, ``stretch_limit``, ``tip_meets_base``,
+        ``instability``,
         ``targets``); ``reason`` says in words why a curve ended short of full bend.
 
     Raises
