@@ -8,10 +8,11 @@ overlap table of every converged step (:mod:`pnmold.fem.overlap`; the contact fo
 with contact on).
 
     .venv/bin/python benchmarks/contact.py [--design fpn] [--only on|off] [--max-kpa 150]
-                                           [--penalty 10] [--activation 0.1]
+                                           [--penalty 10] [--activation 0.1] [--past-ends]
 
-``--max-kpa`` ends the curves at that pressure (the build's limit by default): with contact the
-fPN's tip meets its base before a full bend, and the curve then crawls with the tip pressed on it.
+``--max-kpa`` ends the curves at that pressure (the build's limit by default). With contact the
+fPN's tip meets its base before a full bend, where the curve ends (``tip_meets_base``);
+``--past-ends`` solves on with the tip pressed on the base.
 """
 
 from __future__ import annotations
@@ -60,9 +61,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-kpa", type=float, default=QUICK_MAX_PRESSURE_KPA)
     parser.add_argument("--penalty", type=float, default=SelfContact.penalty_mpa_per_mm)
     parser.add_argument("--activation", type=float, default=SelfContact.activation_mm)
+    parser.add_argument("--past-ends", action="store_true", help="no tip_meets_base stop")
     args = parser.parse_args(argv)
     design = load_design(args.design)
-    contact = SelfContact(penalty_mpa_per_mm=args.penalty, activation_mm=args.activation)
+    contact = SelfContact(penalty_mpa_per_mm=args.penalty, activation_mm=args.activation,
+                          stop_where_ends_meet=not args.past_ends)
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([sys.executable, "-m", "pnmold.cli", "build", args.design, "--no-fem", "--no-slicer",
                         "--quiet", "--out", str(Path(tmp) / "b")], check=True)

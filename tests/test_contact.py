@@ -197,6 +197,7 @@ def test_a_curve_whose_ends_meet_is_named_and_says_where():
     stop, reason, fb = _stop("stopped", [step], {"ends_meet": (step, 3, 0.012)}, False, 3.0)
     assert stop == "tip_meets_base" and stop in STOPS and fb is None
     assert "40.6 kPa" in reason and "329.0 deg" in reason and "3 contact pairs" in reason
+    assert "(1 contact pair carrying" in _stop("stopped", [step], {"ends_meet": (step, 1, 0.01)}, False, 3.0)[1]
 
 
 def blocks() -> object:

@@ -333,8 +333,8 @@ def _stop(why: str, steps: list[Step], found: dict, blocked: bool,
         s, pairs, force = found["ends_meet"]
         return "tip_meets_base", (
             f"the free end meets the clamped end at {s.pressure_kpa:.4g} kPa and {s.bend_angle_deg:.1f} deg "
-            f"({pairs} contact pairs carrying {force:.3g} N): the actuator's own body stops the bend "
-            "there; the curve ends there"), fb
+            f"({pairs} contact pair{'s' if pairs > 1 else ''} carrying {force:.3g} N): the actuator's own body "
+            "stops the bend there; the curve ends there"), fb
     if why == "instability":
         s = found["instability"]
         return "instability", (
