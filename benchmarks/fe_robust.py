@@ -46,7 +46,7 @@ RANGES = {
     "bottom_layer.thickness_mm": (1.5, 4.0),
     "channel.height_mm": (0.6, 2.0),
 }
-PHYSICAL = ("pressure_maximum", "pressure_limit", "stretch_limit", "instability")
+PHYSICAL = ("pressure_maximum", "pressure_limit", "stretch_limit", "instability", "tip_meets_base")
 
 
 def draw_designs(n: int, seed: int) -> list[tuple[int, list[str]]]:
