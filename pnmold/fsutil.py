@@ -236,14 +236,14 @@ STALE_TEMP_S = 3600.0
 
 
 def claim_store(folder: str | Path, what: str, ours: re.Pattern[str]) -> Path:
-    """A folder pnmold keeps adding files to (the FE cache): made with a marker when absent; one
-    without a marker is adopted only when every file in it is a name pnmold writes there (``ours``),
-    else refused with an OutputError. Temporary files of killed writes are removed."""
+    """A folder pnmold keeps adding files to (the FE cache). One without a marker is adopted (marked)
+    only when every file in it is a name pnmold writes there (``ours``), else refused with an
+    OutputError; an absent one is left absent (reading makes no folder: the first write makes it).
+    Temporary files of killed writes are removed."""
     folder = Path(folder)
     if not folder.is_dir():
         check_replaceable(folder)  # a file in the way is refused
-        with _access(folder, f"cannot create the {what}"):
-            folder.mkdir(parents=True, exist_ok=True)
+        return folder
     if _listed(folder) is None:
         foreign = [p.name for p in folder.iterdir() if not ours.fullmatch(p.name) and not _temp(p.name)]
         if foreign:

@@ -135,6 +135,8 @@ def test_the_fe_cache_adopts_its_own_files_refuses_a_labs_folder_and_drops_stale
     with pytest.raises(OutputError, match="r.csv"):
         claim_store(lab, "FE cache", names)
     assert unchanged(files) and not (lab / MARKER).exists()
+    assert claim_store(tmp_path / "absent", "FE cache", names) == tmp_path / "absent"
+    assert not (tmp_path / "absent").exists()  # reading makes no folder; the first write does
 
 
 def test_a_sweep_store_refuses_a_database_it_did_not_write(tmp_path):
