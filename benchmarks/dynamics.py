@@ -2,10 +2,11 @@
 beside the paper's ~50 ms.
 
 1. fPN vs sPN at one supply: the time to full bend and the volume change each needs
-   (quasi-static, from the FE law); both ratios (sPN / fPN) are printed. Where the sPN's FE
-   curve stops short of full bend (its chambers balloon and the solve stalls), its
-   full-bend figures are linear extrapolations and say so; the same ratios at the largest
-   angle both FE curves reach are printed too, free of extrapolation.
+   (quasi-static, from the FE law); both ratios (sPN / fPN) are printed. Where an FE curve
+   stops short of full bend (the sPN's ends at its pressure maximum) no full-bend figure is
+   given: no law is read past the FE's last solved step (issue 43); the same ratios at the
+   largest angle both FE curves reach are printed, and the step model ends where a chamber
+   reaches the law's last pressure (the reason says so).
 2. The fPN's time to full bend at 345 kPa supply beside the paper's: Mosadegh et al.,
    Adv. Funct. Mater. 24 (2014) 2109, abstract: an fPN "can bend fully in ~50 ms" when
    pressurised at 345 kPa (50 psi). (The supplement's "Characterizing the Rapid Actuation of
@@ -90,24 +91,23 @@ def compare(laws, designs, supply_kpa, duration_s):
         dv_c = float(law.volume_ml(p_c) - law.volume_ml(0.0))
         rows[name] = {"tfb": tfb, "dv_fb": info["volume_change_at_full_bend_ml"], "t_c": _time_to_angle(res, common),
                       "dv_c": dv_c}
-        fe_max = law.angle_deg_samples[-1]
-        extrap = (f" EXTRAPOLATED: the FE curve ends at {law.pressure_kpa[-1]:.1f} kPa and {fe_max:.0f} deg"
-                  if fe_max < 360 else "")
-        print(f"{name}: full bend {_ms(tfb)} (quasi-static at {info['full_bend_pressure_kpa']:.1f} kPa, volume change "
-              f"{info['volume_change_at_full_bend_ml']:.2f} mL{extrap}); {common:.0f} deg at "
+        quasi = (f"quasi-static at {info['full_bend_pressure_kpa']:.1f} kPa, volume change "
+                 f"{info['volume_change_at_full_bend_ml']:.2f} mL" if info["full_bend_pressure_kpa"] is not None
+                 else f"quasi-static: {law.short_of_full_bend()}")
+        print(f"{name}: full bend {_ms(tfb)} ({quasi}); {common:.0f} deg at "
               f"{_ms(rows[name]['t_c']).strip()} (quasi-static {p_c:.1f} kPa, {dv_c:.2f} mL); rest volume "
               f"{float(law.volume_ml(0)):.2f} mL; mass {info['mass_g']:.1f} g, bending mode "
               f"{info['natural_frequency_hz']:.1f} Hz [{wall * 1000:.0f} ms, {info['steps']} steps]")
         if tfb is None:
             print(f"     {res.reason}")
     f, s_ = rows["fpn"], rows["spn"]
-    print(f"ratio sPN / fPN, time to {common:.0f} deg (inside both FE curves): {s_['t_c'] / f['t_c']:.2f}")
+    if f["t_c"] and s_["t_c"]:
+        print(f"ratio sPN / fPN, time to {common:.0f} deg (inside both FE curves): {s_['t_c'] / f['t_c']:.2f}")
     print(f"ratio sPN / fPN, volume change to {common:.0f} deg: {s_['dv_c'] / f['dv_c']:.2f}")
     if f["tfb"] and s_["tfb"]:
-        print(f"ratio sPN / fPN, time to full bend: {s_['tfb'] / f['tfb']:.2f}"
-              + (" (sPN extrapolated)" if laws["spn"].angle_deg_samples[-1] < 360 else ""))
-    print(f"ratio sPN / fPN, volume change to full bend: {s_['dv_fb'] / f['dv_fb']:.2f}"
-          + (" (sPN extrapolated)" if laws["spn"].angle_deg_samples[-1] < 360 else ""))
+        print(f"ratio sPN / fPN, time to full bend: {s_['tfb'] / f['tfb']:.2f}")
+    if f["dv_fb"] is not None and s_["dv_fb"] is not None:
+        print(f"ratio sPN / fPN, volume change to full bend: {s_['dv_fb'] / f['dv_fb']:.2f}")
     return rows
 
 

@@ -61,21 +61,25 @@ def test_rows_past_a_pressure_maximum_have_no_equilibrium_and_say_how_far(models
     out = at_max.run(protocol, {"gravity": 0.0}, partial=True)
     below = p <= top
     # below the maximum: the same law as a run that stopped at its pressure limit there
-    same = at_limit.run(protocol, {"gravity": 0.0})
+    same = at_limit.run(protocol, {"gravity": 0.0}, partial=True)
     at_top = at_limit.run(Protocol("bending", np.array([top]), "none"), {"gravity": 0.0})
+    linear = at_limit.tables.angle[-1] + (p[-1] - top) * (at_limit.tables.angle[-1] - at_limit.tables.angle[-2]) / (
+        at_limit.tables.p[-1] - at_limit.tables.p[-2])  # what the last slope's extrapolation would say
     for key in ("bend_angle_deg", "tip_x_mm", "tip_z_mm", "cavity_volume_ml"):
         assert np.allclose(out[key][below], same[key][below]), key
         # past it: the state at the maximum, the nearest the model comes (not the last slope's extrapolation)
         assert np.allclose(out[key][~below], at_top[key][0]), key
-        assert not np.allclose(same[key][~below], at_top[key][0]), key
+        # a run that stopped at its pressure limit is not read past it either (issue 43): the same state
+        assert np.allclose(same[key][~below], at_top[key][0]), key
+    assert np.degrees(linear[-1]) > at_top["bend_angle_deg"][0] + 20  # which it no longer is
     # past it: the share of the row's pressure the model cannot hold, 1 - p_max / p
     expected = np.zeros(p.size)
     expected[~below] = 1.0 - top / p[~below]
     assert out["pressure_excess"] == pytest.approx(expected, abs=1e-12)
-    assert np.all(out["beyond_fe"] == ~below)
-    # the run that stopped at a pressure limit extrapolates instead (and marks the rows)
-    assert np.all(np.isfinite(same["bend_angle_deg"])) and np.all(same["beyond_fe"] == ~below)
-    assert np.all(same["pressure_excess"] == 0.0)
+    assert same["pressure_excess"] == pytest.approx(expected, abs=1e-12)
+    assert np.all(out["beyond_fe"] == ~below) and np.all(same["beyond_fe"] == ~below)
+    with pytest.raises(SolveError, match=r"fpn at .* kPa lies past the last pressure the FE solved .*pressure limit"):
+        at_limit.run(protocol, {"gravity": 0.0})
 
 
 def test_the_modulus_scale_moves_the_maximum_with_it(models):
@@ -108,7 +112,10 @@ def test_simulate_leaves_out_the_rows_past_the_maximum_and_says_why(models):
     assert doc["reason"].startswith("pressure maximum of") and "2 of 5 rows lie past it" in doc["reason"]
     full = simulate_rom(at_limit.design, SimulationRequest(pressures, model="rom", orientation="chambers_up"),
                         at_limit.characterisation)
-    assert len(full["steps"]) == 5  # a run that stopped at its pressure limit: read on, as before
+    # a run that stopped at its pressure limit: not read on past it either (issue 43), said
+    assert len(full["steps"]) == 3
+    assert full["reason"].startswith("2 of 5 rows lie past the last pressure the FE solved") and \
+        "at the pressure limit" in full["reason"]
 
 
 def test_a_simulation_stops_at_full_bend_the_physical_stop():
@@ -122,4 +129,5 @@ def test_a_simulation_stops_at_full_bend_the_physical_stop():
     assert [s["pressure_kpa"] for s in far["steps"]] == [0.0, 20.0, 40.0]
     assert far["steps"] == near["steps"]
     assert max(s["bend_angle_deg"] for s in far["steps"]) <= 360.0
-    assert "2 row(s) from 1000 kPa lie past full bend" in far["reason"] and "physical stop" in far["reason"]
+    assert "2 of 5 rows lie past the last pressure the FE solved (46.5 kPa" in far["reason"]
+    assert "ends at full bend" in far["reason"] and "the free end meets the clamped end" in far["reason"]

@@ -72,11 +72,20 @@ class Reach:
         The pressure of full bend, kPa; None: the FE stopped short of it.
     reason : str or None
         Why the FE stopped (e.g. a pressure maximum); None: not said.
+    stop : str or None
+        How the FE's curve ended (:attr:`pnmold.physics.characterisation.Characterisation.how_ended`);
+        None: read from ``reason`` (a pressure maximum when it says so).
     """
 
     max_pressure_kpa: float
     full_bend_pressure_kpa: float | None = None
     reason: str | None = None
+    stop: str | None = None
+
+    @property
+    def at_maximum(self) -> bool:
+        """The FE's curve ended at a pressure maximum (no equilibrium past it under pressure control)."""
+        return self.stop == "pressure_maximum" if self.stop else (self.reason or "").startswith("pressure maximum")
 
 
 @dataclass(frozen=True, eq=False)

@@ -42,11 +42,13 @@ def rows_where(predictions: list[dict[str, np.ndarray]], data: DataSet, key: str
 
 def extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach: Reach | None,
                   scale: float = 1.0) -> list[str]:
-    """Where the final model reads its FE law beyond the pressures the FE solved: said, and refused
-    (SolveError) when that is most of the data and the FE stopped short of full bend. Rows past the
-    FE's pressure maximum are not read off any law (the model has no equilibrium there): said, with
-    how they were judged. ``scale``: the calibrated modulus scale, by which the FE's pressures carry
-    over to the recordings'."""
+    """Where the final model's rows lie past the pressures the FE solved: said, and refused (SolveError)
+    when that is most of the data and the FE stopped short of full bend other than at a pressure maximum.
+    Rows past the FE's last solved step are not read off any law (the reduced model holds them at that
+    step, :meth:`pnmold.physics.rom.ReducedModel.run`; past a pressure maximum it has no equilibrium):
+    said, with how they were judged. Rows flagged ``beyond_fe`` without an excess (a curve read by volume
+    past the model's own pressure grid) are said as extrapolated. ``scale``: the calibrated modulus scale,
+    by which the FE's pressures carry over to the recordings'."""
     past = rows_where(predictions, data, "pressure_excess")
     full = rows_where(predictions, data, "volume_excess")  # read by volume: more than the model can take
     beyond = int(np.sum(rows_where(predictions, data, "beyond_fe") & ~past & ~full))
@@ -58,13 +60,24 @@ def extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach
              f"{top * scale:.4g} kPa of the recordings ({top:.4g} kPa with the design's rubber, times the "
              f"calibrated modulus scale {scale:.3g})")
     notes = []
+    short = reach.full_bend_pressure_kpa is None and reach.reason
+    if past.any() and short and not reach.at_maximum and past.sum() > REFUSE_BEYOND_FE * total:
+        raise SolveError(f"{int(past.sum())} of {total} rows need the model beyond {where}, where the FE's "
+                         f"characterisation of the design stopped ({reach.reason}): the model reads no law past "
+                         "the FE's last solved step. Check the design (the FE must reach the recordings' bend) before "
+                         "diagnosing.")
     if past.any():
         share = data.series[0].pressure_share or PRESSURE_FORM_SHARE
-        notes.append(f"{int(past.sum())} of {total} rows lie past the model's pressure maximum ({where}; "
-                     f"{reach.reason or 'the FE'}): it has no equilibrium there under pressure control, so "
-                     f"each counts by the share of its pressure the model cannot hold ({100 * share:.3g} % of the "
-                     f"pressure is one standard deviation). A volume-driven rig follows the actuator past such a "
-                     f"maximum; the model does not.")
+        counts = (f"each counts by the share of its pressure the model cannot hold ({100 * share:.3g} % of the "
+                  f"pressure is one standard deviation)")
+        if reach.at_maximum:
+            notes.append(f"{int(past.sum())} of {total} rows lie past the model's pressure maximum ({where}; "
+                         f"{reach.reason or 'the FE'}): it has no equilibrium there under pressure control, so "
+                         f"{counts}. A volume-driven rig follows the actuator past such a maximum; the model does not.")
+        else:
+            notes.append(f"{int(past.sum())} of {total} rows lie past the last pressure the FE solved ({where}; "
+                         f"{reach.reason or 'the FE'}): the model reads no law past it, so each is held at that "
+                         f"last state and {counts}.")
     if full.any():
         share = data.series[0].pressure_share or PRESSURE_FORM_SHARE
         notes.append(f"{int(full.sum())} of {total} rows read by the volume their rig set hold more than the model "
@@ -73,7 +86,6 @@ def extrapolation(predictions: list[dict[str, np.ndarray]], data: DataSet, reach
                      f"standard deviation).")
     if not beyond:
         return notes
-    short = reach.full_bend_pressure_kpa is None and reach.reason
     if short and beyond > REFUSE_BEYOND_FE * total:
         raise SolveError(f"{beyond} of {total} rows need the model beyond {where}, where the FE's "
                          f"characterisation of the design stopped ({reach.reason}): the answer would rest on "

@@ -40,7 +40,7 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     c = characterised_for(design, [r.kind for r in recordings], [r.orientation for r in recordings if r.kind != "step"],
                           layer=True, progress=progress)  # a compliant layer is among the effects tried
     rest, recordings = check_rest(recordings, diagnosis_forward(design, recordings), design.free_length_mm)
-    reach = Reach(c.max_pressure_kpa, c.full_bend_pressure_kpa, c.reason)
+    reach = Reach(c.max_pressure_kpa, c.full_bend_pressure_kpa, c.end_reason, c.how_ended)
     floor = None
     if uncertain:
         floor = DesignFloor.of(design, uncertainty_runs(design, uncertain, blocked=force, progress=progress),

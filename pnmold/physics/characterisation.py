@@ -46,6 +46,9 @@ class Characterisation:
     design_digest: str = ""
     full_bend_pressure_kpa: float | None = None
     reason: str | None = None
+    #: how the free run ended, one of :data:`pnmold.fem.STOPS` (None in files written before it was kept:
+    #: :attr:`how_ended` reads it from ``reason``)
+    stop: str | None = None
     mesh: dict = field(default_factory=dict)
     rod_x_mm: np.ndarray | None = None
     rod_angle_rad: np.ndarray | None = None
@@ -100,6 +103,37 @@ class Characterisation:
         no equilibrium under pressure control, so the law there is not extrapolated."""
         return self.full_bend_pressure_kpa is None and (self.reason or "").startswith("pressure maximum")
 
+    @property
+    def how_ended(self) -> str:
+        """How the free run ended: ``full_bend``, a named physical stop (``pressure_maximum``,
+        ``stretch_limit``, ``tip_meets_base``, ``instability``), ``pressure_limit`` (merely the pressure
+        cap, below full bend) or ``failed``; from ``stop`` when kept, else from the words of ``reason``
+        (:func:`pnmold.fem.solver._stop`)."""
+        if self.stop:
+            return self.stop
+        reason = self.reason or ""
+        for start, stop in _REASON_STARTS:
+            if reason.startswith(start):
+                return stop
+        if self.full_bend_pressure_kpa is not None:
+            return "full_bend"
+        return "pressure_limit" if "at the pressure limit" in reason else "failed"
+
+    @property
+    def ends_at_cap(self) -> bool:
+        """The free run ended merely at its pressure cap, below full bend: solving on would go further."""
+        return self.how_ended == "pressure_limit"
+
+    @property
+    def end_reason(self) -> str:
+        """Why the free run's curve ends where it does, in words."""
+        if self.reason:
+            return self.reason
+        if self.how_ended == "full_bend":
+            return (f"the FE's curve ends at full bend (360 deg at {self.full_bend_pressure_kpa:.4g} kPa): the free "
+                    "end meets the clamped end")
+        return f"the FE's curve ends there ({self.how_ended})"
+
     def chamber_rotation_deg(self, design: Design) -> np.ndarray:
         """(S, n) rotation of each chamber's pitch of the bottom line (the first is clamped)."""
         if not self.has_rod:
@@ -127,6 +161,12 @@ class Characterisation:
             if kw.get(name) is not None:
                 kw[name] = np.asarray(kw[name], float)
         return cls(**kw)
+
+
+#: the first words of the FE's reasons (:func:`pnmold.fem.solver._stop`) -> the stop
+_REASON_STARTS = (("pressure maximum", "pressure_maximum"), ("the largest principal stretch", "stretch_limit"),
+                  ("the free end meets the clamped end", "tip_meets_base"), ("the actuator loses stability",
+                                                                            "instability"))
 
 
 def distinct_steps(pressure_kpa: Sequence[float], min_step_kpa: float = 0.01) -> np.ndarray:

@@ -66,6 +66,7 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import math
 import os
 import re
 import time
@@ -104,6 +105,9 @@ LADDER_EFFECT = "strain_stiffening.c30_mpa"
 #: the blocked-tip probe's pressure, a share of the free run's last (assumed: the FE's blocked force of the
 #: ribbed segment per kPa was 0.0069 N at 2 kPa and 0.0076 N at 5 kPa of its 17.5, so a twentieth is linear)
 BLOCKED_PROBE_SHARE = 0.05
+#: a characterisation solved on past its pressure cap goes up to the pressure asked for rounded up to a multiple
+#: of this (assumed: nearby supplies share one FE run; :func:`characterise_up_to`)
+EXTEND_STEP_KPA = 50.0
 #: the templates' characterisations (default mesh and pressure limit), read when the cache has none
 BUNDLED_DIR = Path(__file__).resolve().parents[1] / "data" / "characterisations"
 
@@ -177,6 +181,23 @@ def characterise(design: Design, *, size: MeshSize | None = None,
         result = _with_variants(result, _run_variants(design, size, missing, say, pressures_kpa=pressures))
         write_json(path, result.to_json())
     return result
+
+
+def characterise_up_to(design: Design, pressure_kpa: float, *, size: MeshSize | None = None,
+                       progress: Callable[[str], None] | None = None) -> Characterisation:
+    """The design's characterisation reaching ``pressure_kpa`` where the FE can: :func:`characterise`'s, and
+    when that ended merely at its pressure cap (below full bend) below ``pressure_kpa``, the FE solved on up
+    to ``pressure_kpa`` rounded up to :data:`EXTEND_STEP_KPA` (a characterisation of its own, cached under
+    that pressure limit, without the variant runs), which ends at full bend, a named physical stop or that
+    cap. A characterisation that ended at full bend or at a physical stop is returned as it is: the laws
+    answer with that end (:class:`pnmold.pneumatics.law.LawEnd`)."""
+    c = characterise(design, size=size, progress=progress)
+    if not c.ends_at_cap or c.source != "fe" or pressure_kpa <= c.max_pressure_kpa * (1 + 1e-9):
+        return c
+    cap = math.ceil(pressure_kpa / EXTEND_STEP_KPA) * EXTEND_STEP_KPA
+    (progress or log.info)(f"{design.name}: its characterisation ends at the pressure cap "
+                           f"{c.max_pressure_kpa:.4g} kPa below full bend; solving on to {cap:g} kPa")
+    return characterise(design, size=size, max_pressure_kpa=cap, progress=progress, variants=False)
 
 
 def ladder_keys(design: Design) -> list[str]:
@@ -346,7 +367,7 @@ def _run_fe(design: Design, size: MeshSize, max_pressure_kpa: float,
         compliance = np.tile(slab_flexibility(design, x), (len(steps), 1))
     return Characterisation(
         **{k: getattr(base, k) for k in CURVES}, design_name=design.name, design_digest=digest(design),
-        full_bend_pressure_kpa=free.full_bend_pressure_kpa, reason=free.reason,
+        full_bend_pressure_kpa=free.full_bend_pressure_kpa, reason=free.reason, stop=free.stop,
         mesh={"nodes": run.quality.n_nodes, "tets": run.quality.n_tets, "wall_size_mm": size.wall_mm,
               "max_size_mm": size.max_mm, "band_mm": size.band_mm, "half_model": size.half},
         rod_x_mm=x, rod_angle_rad=angle, rod_length_mm=length, compliance_rad_per_n_mm=compliance,

@@ -9,10 +9,12 @@ Per protocol row, in this order (every step vectorised over the rows):
    ``modulus_scale`` x the Mullins factor, and by the strain-stiffening factor ``r``
    (``p = p_eff r(p_eff)``, inverted on a fine table). ``r`` comes from the FE's own run with
    stiffer rubber (:mod:`.response`), separately for the shape and for the volume; past the FE's
-   pressure maximum, from the stiffening ladder (:mod:`.rom_ladder`).
+   pressure maximum, from the stiffening ladder (:mod:`.rom_ladder`). The law is read only up to
+   the FE's last solved step, whatever ended it (full bend, a physical stop, the pressure cap): a
+   row past it is out of reach (:meth:`ReducedModel.run`'s ``partial``), never extrapolated.
 3. **Free shape**: each bottom-line edge's angle and length at ``p_eff`` from the FE steps
-   (linear in pressure between steps, the last slope beyond them); self-contact freezes
-   the increments above its contact pressure down to 1/(1 + value).
+   (linear in pressure between steps); self-contact freezes the increments above its contact
+   pressure down to 1/(1 + value).
 4. **Loads** (:mod:`.rod`): weight (gravity x orientation, net of buoyancy submerged) and,
    for ``force``, a rigid plane at the tip's rest height z = 0 (supplement Fig. S6). The
    hinge compliance (FE probe) is divided by the same stiffness factors. Layer compliance
@@ -56,7 +58,7 @@ from pnmold.physics.rom_effects import (
     stiffening,
     variant_responses,
 )
-from pnmold.physics.rom_ladder import LADDER_EXTRAPOLATION, ladder_characterisation, ladder_of
+from pnmold.physics.rom_ladder import ladder_characterisation, ladder_of
 from pnmold.physics.rom_law import free_law, interp, slope
 from pnmold.physics.section import rod_loads
 
@@ -65,8 +67,8 @@ from pnmold.physics.section import rod_loads
 #: density as a multiple of the design's (assumed limits: a rubber full of air or of filler), and a camera
 #: frame's offset and rotation (:mod:`.reading`)
 CALIBRATION = {"modulus_scale": (1.0, (0.02, 50.0)), "density_scale": (1.0, (0.5, 2.0)), **FRAME}
-#: a row is beyond the FE's characterisation when its effective pressure passes the FE's last one by this share
-BEYOND_FE_SHARE = 0.01
+#: a row is past the FE's last solved step when its effective pressure passes it by more than this share (rounding)
+PAST_END_SHARE = 1e-9
 #: the pressure grid a recording read by its volume is solved on: up to this multiple of its top recorded
 #: pressure (a model the calibration makes stiffer needs more to take the same volume), in this many points
 #: (assumed: the curve read by linear interpolation between points about 1 kPa apart)
@@ -84,7 +86,7 @@ class _LawPressures:
     stretch: np.ndarray  # the free part's stretch (strain stiffening x layer compliance)
     p_bend: np.ndarray  # the free law's pressure the shape reads
     p_vol: np.ndarray  # the free law's pressure the volume reads
-    excess: np.ndarray  # the share of the row's pressure beyond the FE's maximum (0: within reach)
+    excess: np.ndarray  # the share of the row's pressure past the FE's last solved step (0: within reach)
     past: np.ndarray  # excess > 0
 
 
@@ -176,15 +178,16 @@ class ReducedModel:
             calibration: Mapping[str, float] | None = None, partial: bool = False) -> dict[str, np.ndarray]:
         """Every protocol row's observables (recording columns of its kind, and more), read as the
         protocol's recording measures them (:mod:`.reading`); ``beyond_fe``: the rows whose
-        pressure lies beyond what the FE characterised (the law is extrapolated there).
+        pressure lies past what the FE solved (out of reach: the law is not read there).
 
         ``effects``: values by name (and ``NAME.PARAM``), unnamed ones at their catalogue
         default (gravity 1 g, the rest off); ``params``: more ``NAME.PARAM`` values;
         ``calibration``: nominal parameters (``modulus_scale`` and ``density_scale``, 1 = the design's
         rubber; a camera frame's offset and rotation). ``partial``: rows without an equilibrium (past a limit point)
-        come back as NaN instead of raising :class:`SolveError`; rows beyond the FE's pressure maximum
-        (none without ``partial``: an error) carry the state at the maximum, the nearest the model
-        comes, and ``pressure_excess`` > 0, the share of their pressure the model cannot hold."""
+        come back as NaN instead of raising :class:`SolveError`; rows past the FE's last solved step (its
+        pressure maximum, full bend, a physical stop or its pressure cap; none without ``partial``: an
+        error) carry the state there, the nearest the model comes, and ``pressure_excess`` > 0, the share
+        of their pressure the model cannot hold."""
         if protocol.by_volume:
             return self._run_by_volume(protocol, effects, params, calibration, partial)
         values = fx.check_effects({**(effects or {}), **(params or {})}, model="rom")
@@ -204,8 +207,8 @@ class ReducedModel:
     def _law_pressures(self, protocol: Protocol, v: Callable[[str], float], scale: float, partial: bool
                        ) -> _LawPressures:
         """Steps 1-2 of the module docstring: the history's pressure and stiffness, the stiffening's and the
-        layer compliance's pressures on the free law, held at the FE's maximum past it (with ``partial``;
-        else :class:`SolveError`)."""
+        layer compliance's pressures on the free law, held at the FE's last solved step past it (with
+        ``partial``; else :class:`SolveError`)."""
         p = protocol.pressure_kpa
         x = viscoelastic_pressure(p, protocol.times_s(), v("viscoelasticity"), v("viscoelasticity.tau_s"))
         stiff = scale * mullins_factor(p, v("mullins"), v("mullins.exponent"))
@@ -218,13 +221,18 @@ class ReducedModel:
         soft, soft_v, layer_stretch = self.layer_softening(layer, p_eff) if layer > 0 else (1.0, 1.0, 1.0)
         p_bend = p_eff["bend"] * soft  # the shape reads the free law further on
         p_vol = p_eff["volume"] * soft_v
-        excess = self._past_maximum(np.maximum(p_bend, p_vol))
+        excess = self._past_end(np.maximum(p_bend, p_vol))
         past = excess > 0
-        if past.any():  # no equilibrium there: the state at the maximum, the nearest the model comes
+        if past.any():  # out of reach: the state at the FE's last solved step, the nearest the model comes
             if not partial:
                 at = ", ".join(f"{q:.4g}" for q in p[past[:-1]][:5])
-                raise SolveError(f"reduced model: no equilibrium of {self.design.name} at {at} kPa: beyond the FE's "
-                                 f"{self.characterisation.reason}")
+                c = self.characterisation
+                if c.ends_at_pressure_maximum:
+                    raise SolveError(f"reduced model: no equilibrium of {self.design.name} at {at} kPa: beyond the "
+                                     f"FE's {c.reason}")
+                raise SolveError(f"reduced model: {self.design.name} at {at} kPa lies past the last pressure the FE "
+                                 f"solved ({self._reach_kpa():.4g} kPa on the design's rubber: {c.end_reason}); "
+                                 "the law is not read past it")
             reach = self._reach_kpa()
             p_bend, p_vol = np.minimum(p_bend, reach), np.minimum(p_vol, reach)
         return _LawPressures(stiff, ratio, np.broadcast_to(soft, p_bend.shape),
@@ -280,7 +288,7 @@ class ReducedModel:
                "cavity_volume_ml": volume[:-1],
                "volume_ml": read_volume(volume[:-1] - volume[-1], volume[-1], p, m, v("dead_volume")),
                "max_principal_stretch": interp(t.p, t.stretch, law.p_vol[:-1]),
-               "beyond_fe": law.past[:-1] | (law.p_bend[:-1] > t.p[-1] * (1.0 + BEYOND_FE_SHARE)),
+               "beyond_fe": law.past[:-1].copy(),
                "pressure_excess": law.excess[:-1]}
         if protocol.kind == "force":
             out["force_n"] = state.force_n[:-1]
@@ -299,24 +307,19 @@ class ReducedModel:
                              f"{float(np.max(protocol.volume_ml)):.4g} mL: {self.characterisation.reason}")
         return out
 
-    def _past_maximum(self, p_read: np.ndarray) -> np.ndarray:
-        """Per row, the share of its pressure beyond the FE's pressure maximum (1 - p_max / p, on the
-        free law's pressure ``p_read``) when the characterisation ended at one, else 0: under pressure
-        control there is no equilibrium past a limit point (the actuator snaps), so the law is not
-        extrapolated there; the share says how far out of reach the row is."""
+    def _past_end(self, p_read: np.ndarray) -> np.ndarray:
+        """Per row, the share of its pressure past the FE's last solved step (1 - p_top / p, on the free
+        law's pressure ``p_read``), else 0. The law is not read past that step, whatever ended it: at a
+        pressure maximum the actuator has no equilibrium under pressure control (it snaps); at full bend
+        the free end meets the clamped end; past a physical stop or the pressure cap the FE did not solve
+        (:attr:`pnmold.physics.characterisation.Characterisation.how_ended`). The share says how far out
+        of reach the row is."""
         top = self._reach_kpa()
-        if not np.isfinite(top):
-            return np.zeros_like(p_read)
-        return np.where(p_read > top, 1.0 - top / np.maximum(p_read, top), 0.0)
+        return np.where(p_read > top * (1.0 + PAST_END_SHARE), 1.0 - top / np.maximum(p_read, top), 0.0)
 
     def _reach_kpa(self) -> float:
-        """The free law's pressure past which a row has no equilibrium: the FE's maximum when its run ended
-        at one; for a laddered model whose runs ended at a bifurcation, :data:`LADDER_EXTRAPOLATION` past
-        their end (the law extrapolated up to there); else none (inf)."""
-        c, top = self.characterisation, float(self.tables.p[-1])
-        if c.ends_at_pressure_maximum:
-            return top
-        return top * (1.0 + LADDER_EXTRAPOLATION) if c.source == "ladder" else float("inf")
+        """The free law's last solved pressure: past it a row is out of reach."""
+        return float(self.tables.p[-1])
 
     def _equilibria(self, angle: np.ndarray, length: np.ndarray, comp: np.ndarray, gxz: tuple[float, float],
                     plane: float | None, partial: bool) -> RodState:

@@ -22,10 +22,6 @@ from pnmold.physics.rom_law import rod_of
 
 #: points along a laddered curve (shares of its final bend)
 LADDER_POINTS = 61
-#: how far past the end of ladder runs that met a bifurcation (pressure still rising) their law is
-#: extrapolated, as a share of the end's pressure; beyond, no equilibrium (assumed: without a bound a fit
-#: reaches for the cheap straight line, on the ribbed segment's P-V 45 % past the end)
-LADDER_EXTRAPOLATION = 0.1
 
 
 def ladder_of(c: Characterisation) -> list[dict]:
@@ -69,12 +65,14 @@ def ladder_characterisation(design: Design, c: Characterisation, ladder: list[di
     x, angle, length, comp = rod_of(design, c)
     p, b = curves["pressure_kpa"][-1], bend[-1]
     # a maximum where the pressure peaks inside, or where both runs end at one; a run that ends where the FE
-    # meets a bifurcation (``instability``, the pressure still rising) leaves the law beyond to extrapolation
+    # meets a bifurcation (``instability``, the pressure still rising) ends the law there too: the FE did not
+    # solve past it (the reduced model reads no law past its last step)
     ends = [ladder[j + 1]] if w >= 1.0 else [ladder[j], ladder[j + 1]]
     maximum = top < LADDER_POINTS - 1 or all(r.get("stop") == "pressure_maximum" for r in ends)
     runs = f"Yeoh C30 + {c30_mpa:.3g} MPa, between the FE's runs at {values[j]:g} and {values[j + 1]:g} MPa"
     return Characterisation(
         **curves, design_name=c.design_name, design_digest=c.design_digest, full_bend_pressure_kpa=None,
+        stop="pressure_maximum" if maximum else "instability",
         reason=(f"pressure maximum of {p:.4g} kPa at {b:.1f} deg bend ({runs})" if maximum else
                 f"the FE's runs end where their path meets a critical point (their pressure still rising): "
                 f"{p:.4g} kPa at {b:.1f} deg bend ({runs})"),

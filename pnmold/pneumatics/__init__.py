@@ -9,7 +9,7 @@ model (StepModel) -> dynamics (StepResponse); :mod:`pnmold.simulate.dynamic` wri
 from pnmold.pneumatics.dynamics import StepResponse, simulate_network, simulate_step
 from pnmold.pneumatics.effects import dead_volume_pv_offset_ml, with_effects
 from pnmold.pneumatics.gas import Duct, Orifice
-from pnmold.pneumatics.law import ChamberLaw, CurveLaw, chamber_law_for, chamber_law_from_curve
+from pnmold.pneumatics.law import BeyondLaw, ChamberLaw, CurveLaw, LawEnd, chamber_law_for, chamber_law_from_curve
 from pnmold.pneumatics.mechanics import BendingDynamics
 from pnmold.pneumatics.model import DIAGNOSIS, SIMULATION, StepModel
 from pnmold.pneumatics.network import ActuatorLine, Network, Rig, bench_network
@@ -17,8 +17,8 @@ from pnmold.pneumatics.protocol import StepProtocol
 from pnmold.pneumatics.trbdf2 import Tolerances
 
 __all__ = [
-    "DIAGNOSIS", "SIMULATION", "ActuatorLine", "BendingDynamics", "ChamberLaw", "CurveLaw", "Duct", "Network",
-    "Orifice", "Rig", "StepModel", "StepProtocol", "StepResponse", "Tolerances", "bench_network",
+    "DIAGNOSIS", "SIMULATION", "ActuatorLine", "BendingDynamics", "BeyondLaw", "ChamberLaw", "CurveLaw", "Duct",
+    "LawEnd", "Network", "Orifice", "Rig", "StepModel", "StepProtocol", "StepResponse", "Tolerances", "bench_network",
     "chamber_law_for", "chamber_law_from_curve", "dead_volume_pv_offset_ml",
     "simulate_network", "simulate_step", "with_effects",
 ]

@@ -13,6 +13,11 @@ At full bend the free end meets the fixed end: beyond 360 degrees a stiff, criti
 damped contact stop acts (assumed: it holds twice the supply's pressure moment within
 1 degree), so the recorded angle stays near 360 degrees while the pressure keeps rising.
 
+The chamber law is known only up to the FE's last solved step (:class:`~pnmold.pneumatics.law.LawEnd`):
+when a chamber's pressure or the bend reaches it, the response ends there, with why
+(``reason``; the series stop at that time), and the quasi-static full-bend pressure is given
+only when the solved range reaches full bend.
+
 Both run on the compiled model of :mod:`pnmold.pneumatics.model` (the TR-BDF2 of
 :mod:`pnmold.pneumatics.trbdf2` over :mod:`pnmold.pneumatics.rates`) at the tolerances
 :data:`~pnmold.pneumatics.model.SIMULATION`; the tests check it against scipy's Radau over
@@ -103,39 +108,52 @@ def _check_duration(duration_s: float) -> None:
 
 def _response(model: StepModel, rig: Rig, traj: Trajectory, duration_s: float, tolerances: Tolerances) -> StepResponse:
     law, low = model.law, traj.lowered
-    cols = traj.columns()
+    rows = traj.solved_rows
+    cols = {k: v[:rows] for k, v in traj.columns().items()}
     chambers = cols.pop("chambers")
-    t = traj.schedule.time_s
+    t = traj.schedule.time_s[:rows]
     tip_x, tip_z = law.tip_for_angle_mm(cols["bend_angle_deg"])
-    supply = np.where(traj.schedule.phase_rows() == SUPPLY, rig.supply_kpa, 0.0)
+    supply = np.where(traj.schedule.phase_rows()[:rows] == SUPPLY, rig.supply_kpa, 0.0)
     series = {"time_s": t, "supply_kpa": supply, **cols, "tip_x_mm": np.asarray(tip_x, float),
               "tip_z_mm": np.asarray(tip_z, float)}
-    reason = None if traj.event_t is not None else _never_reason(model, rig, cols["bend_angle_deg"], duration_s)
+    reason = None if traj.event_t is not None else _never_reason(model, rig, traj, cols["bend_angle_deg"],
+                                                                 duration_s)
     n = low.network.n
-    stored = low.network.stored_mass_kg(traj.states[[0, -1], :n].T).sum(axis=0)
-    full_bend_kpa = float(law.pressure_for_angle_kpa(FULL_BEND_DEG))
+    stored = low.network.stored_mass_kg(traj.states[[0, rows - 1], :n].T).sum(axis=0)
+    full_bend_kpa = law.full_bend_kpa()
     info = {
         "gas_law": "isothermal", "method": "trbdf2", "dt_s": None, "rtol": tolerances.rtol, "steps": traj.steps,
         "duration_s": duration_s, "natural_frequency_hz": low.natural_frequency_hz,
         "damping_ratio": model.bending.damping_ratio, "damping_nms_per_rad": low.mode.damping_nms,
         "stiffness_nm_per_rad": low.stiffness_nm_per_rad, "mass_g": model.bending.mass_kg * 1000,
         "moment_per_kpa_nm": model.bending.moment_per_pa * 1000, "rest_angle_deg": math.degrees(model.theta0),
-        "quasi_static_angle_at_supply_deg": float(law.bend_angle_deg(rig.supply_kpa)),
+        "quasi_static_angle_at_supply_deg": float(law.bend_angle_deg(rig.supply_kpa))
+        if law.within(rig.supply_kpa) else None,
         "full_bend_pressure_kpa": full_bend_kpa,
-        "volume_change_at_full_bend_ml": float(law.volume_ml(full_bend_kpa)) - float(law.volume_ml(0.0)),
-        "mass_balance": {"metered_kg": float(traj.states[-1, n + 2]), "stored_kg": float(stored[1] - stored[0])},
+        "volume_change_at_full_bend_ml": None if full_bend_kpa is None
+        else float(law.volume_ml(full_bend_kpa)) - float(law.volume_ml(0.0)),
+        "law_end": {"pressure_kpa": law.end.pressure_kpa, "bend_angle_deg": law.end.angle_deg,
+                    "cavity_volume_ml": law.end.volume_ml, "stop": law.end.stop, "reason": law.end.reason},
+        "stopped_at_law_end_s": traj.stop_t, "stopped_by": traj.stopped_by,
+        "mass_balance": {"metered_kg": float(traj.states[rows - 1, n + 2]), "stored_kg": float(stored[1] - stored[0])},
     }
     return StepResponse(series, chambers, traj.event_t, reason, info)
 
 
-def _never_reason(model: StepModel, rig: Rig, angle_deg, duration_s) -> str:
+def _never_reason(model: StepModel, rig: Rig, traj: Trajectory, angle_deg, duration_s) -> str:
     law = model.law
     peak = float(np.max(angle_deg))
-    quasi = float(law.bend_angle_deg(rig.supply_kpa))
     if model.theta0 >= math.radians(FULL_BEND_DEG):
         return f"the actuator is already at {math.degrees(model.theta0):.0f} degrees at rest"
-    if quasi < FULL_BEND_DEG:
-        full_kpa = float(law.pressure_for_angle_kpa(FULL_BEND_DEG))
+    if traj.stopped_by is not None:
+        return f"at {traj.stop_t * 1000:.1f} ms {traj.stopped_by} (peak {peak:.0f} degrees)"
+    full_kpa = law.full_bend_kpa()
+    if full_kpa is None:
+        held = (f"the supply ({rig.supply_kpa:g} kPa) holds {float(law.bend_angle_deg(rig.supply_kpa)):.0f} degrees "
+                "quasi-statically; " if law.within(rig.supply_kpa) else "")
+        return f"{held}full bend is {law.short_of_full_bend()}; peak {peak:.0f} degrees within {duration_s:g} s"
+    if rig.supply_kpa < full_kpa:
+        quasi = float(law.bend_angle_deg(rig.supply_kpa))
         return (f"the supply ({rig.supply_kpa:g} kPa) holds only {quasi:.0f} degrees quasi-statically "
                 f"(full bend needs {full_kpa:.1f} kPa); peak {peak:.0f} degrees")
     if rig.vent_at_s is not None and rig.vent_at_s < duration_s:

@@ -8,7 +8,10 @@ of :mod:`pnmold.pneumatics.rates` and integrates them with the TR-BDF2 of
 first run compiles, about 10 s, then numba caches it on disk). ``modulus_scale`` s is the exact scaling of an
 elastomer whose constants all scale by s: the law at pressure p is the nominal law at
 p / s. The contact stop at full bend holds twice the supply's pressure moment within one
-degree (assumed), critically damped.
+degree (assumed), critically damped. The chamber law is read only within what the FE solved:
+the integration stops at the first time a chamber's pressure or the bend reaches the law's
+last (:class:`~pnmold.pneumatics.law.LawEnd`), and says so (:attr:`Trajectory.stopped_by`);
+the rows after it are NaN.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import numpy as np
 from pnmold.conventions import FULL_BEND_DEG
 from pnmold.errors import SolveError
 from pnmold.pneumatics.gas import RHO_STD, slpm_from_kg_s
-from pnmold.pneumatics.law import ChamberLaw, CurveLaw, Pieces, as_curve_law
+from pnmold.pneumatics.law import ChamberLaw, CurveLaw, LawEnd, Pieces, as_curve_law
 from pnmold.pneumatics.mechanics import BendingDynamics, inertia_pieces
 from pnmold.pneumatics.network import TUBING_ID_MM, ActuatorLine, Network, Rig, bench_network
 from pnmold.pneumatics.protocol import Schedule, StepProtocol
@@ -53,18 +56,43 @@ class Lowered:
     theta0_rad: float
     stiffness_nm_per_rad: float
     natural_frequency_hz: float
+    #: the law's end: a chamber's absolute pressure (Pa) and the bend (rad) the integration stops at
+    stop_pa: float = math.inf
+    stop_rad: float = math.inf
+    law_end: LawEnd | None = None
+    modulus_scale: float = 1.0
+
+    def stop_words(self, what: int) -> str:
+        """Why the integration stopped at the law's end (``what``: the chamber's node, or n for the bend)."""
+        end, s = self.law_end, self.modulus_scale
+        scaled = ("" if abs(s - 1.0) < 1e-12 else
+                  f" (the design's rubber's {end.pressure_kpa:.4g} kPa x modulus scale {s:.3g})")
+        if what < self.network.n:
+            head = (f"{self.network.names[what]} reached {end.pressure_kpa * s:.4g} kPa{scaled}, the last pressure "
+                    f"the FE solved")
+        else:
+            head = f"the bend reached {end.angle_deg:.1f} deg, the last the FE solved"
+        return f"{head} (the law {end.describe()}); past it the law is unknown, so the step model ends there"
 
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:
-    """The states at the output times (rows x [pressures, theta, omega, metered kg]), the
-    first time the bend reached the event level (None if not) and the steps taken."""
+    """The states at the output times (rows x [pressures, theta, omega, metered kg]; NaN after
+    ``stop_t``), the first time the bend reached the event level (None if not), the steps taken,
+    and when and why the integration stopped at the law's end (None: it did not)."""
 
     lowered: Lowered
     schedule: Schedule
     states: np.ndarray
     event_t: float | None
     steps: int
+    stop_t: float | None = None
+    stopped_by: str | None = None
+
+    @property
+    def solved_rows(self) -> int:
+        """The output rows up to the law's end (all when the integration did not stop there)."""
+        return int(np.count_nonzero(np.isfinite(self.states[:, 0])))
 
     def columns(self) -> dict[str, np.ndarray]:
         """The pneumatic and bending series at the output times (recording units): inlet,
@@ -74,7 +102,9 @@ class Trajectory:
         n = network.n
         gauge = (self.states[:, :n] - network.p_atm_pa) / 1000
         chambers = gauge[:, network.chambers()]
-        flow, cavity = observe(self.states, self.schedule.phase_rows(), net)
+        rows = self.solved_rows
+        flow, cavity = np.full(len(self.states), np.nan), np.full(len(self.states), np.nan)
+        flow[:rows], cavity[:rows] = observe(self.states[:rows], self.schedule.phase_rows()[:rows], net)
         rest, _ = evaluate(net.volume, 0.0)
         return {"pressure_kpa": gauge[:, network.names.index("inlet")],
                 "pressure_valve_kpa": gauge[:, network.names.index("valve outlet")],
@@ -131,7 +161,10 @@ class StepModel:
                           self._hold, float(modulus_scale), damping, contact_k, contact_c, FULL_BEND_RAD, weight,
                           network.p_atm_pa)
         y0 = np.concatenate([np.full(network.n, network.p_atm_pa), [theta0, 0.0, 0.0]])
-        return Lowered(network, net, mode, y0, theta0, stiffness, natural_hz)
+        law = self.law
+        return Lowered(network, net, mode, y0, theta0, stiffness, natural_hz,
+                       network.p_atm_pa + modulus_scale * law.top_kpa * 1000, math.radians(law.top_deg), law.end,
+                       float(modulus_scale))
 
     def integrate(self, rig: Rig, schedule: Schedule, *, modulus_scale: float = 1.0,
                   tolerances: Tolerances = DIAGNOSIS, event_deg: float | None = None) -> Trajectory:
@@ -145,7 +178,9 @@ class StepModel:
         """The recording's observables at its times (:data:`COLUMNS`): ``pressure_kpa``
         (inlet), ``flow_slpm`` (metered at the valves), ``bend_angle_deg``, ``pressure_far_kpa``
         (last chamber) and ``volume_ml`` (the cavity's volume change); effects
-        ``dead_volume``, ``flow_restriction``; calibration ``modulus_scale``."""
+        ``dead_volume``, ``flow_restriction``; calibration ``modulus_scale``. Rows after the
+        integration stopped at the law's end (a chamber or the bend reached the last the FE solved)
+        are NaN: the model has no answer there (the diagnosis leaves them out as out of reach)."""
         effects = dict(effects or {})
         s = float((calibration or {}).get("modulus_scale", 1.0))
         dead = float(effects.get("dead_volume", 0.0))
@@ -163,10 +198,13 @@ def run_lowered(lowered: Lowered, schedule: Schedule, tolerances: Tolerances,
                 event_deg: float | None = None) -> Trajectory:
     """Integrate a lowered model over a schedule (:func:`pnmold.pneumatics.trbdf2.integrate`)."""
     level = math.radians(event_deg) if event_deg is not None else math.inf
-    states, status, steps, event_t = integrate(
+    states, status, steps, event_t, stop_t, what = integrate(
         schedule.time_s, schedule.switch_s, schedule.phases, lowered.y0, lowered.net, lowered.mode,
-        tolerances.atol(lowered.network.n), tolerances.rtol, tolerances.first_step_s, tolerances.max_steps, level)
+        tolerances.atol(lowered.network.n), tolerances.rtol, tolerances.first_step_s, tolerances.max_steps, level,
+        lowered.stop_pa, lowered.stop_rad)
     if status != OK:
         why = "step size underflow" if status == UNDERFLOW else f"more than {tolerances.max_steps} steps"
         raise SolveError(f"the step model's integration failed ({why})")
-    return Trajectory(lowered, schedule, states, None if math.isnan(event_t) else float(event_t), int(steps))
+    stopped = not math.isnan(stop_t)
+    return Trajectory(lowered, schedule, states, None if math.isnan(event_t) else float(event_t), int(steps),
+                      float(stop_t) if stopped else None, lowered.stop_words(int(what)) if stopped else None)

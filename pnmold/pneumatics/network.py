@@ -172,9 +172,11 @@ class Network:
         p = np.asarray(p_pa, float)
         shape = (self.n,) + (1,) * (p.ndim - 1)
         v = np.broadcast_to(np.reshape(self.rigid_m3, shape), p.shape).copy()
-        if self.law is not None:
-            gauge_kpa = (p - self.p_atm_pa) / 1000 / pressure_scale
-            v += np.reshape(self.law_share, shape) * np.asarray(self.law.volume_ml(gauge_kpa), float) * 1e-6
+        if self.law is not None:  # the law read on the chambers alone (the line's nodes may pass its end)
+            chambers = self.chambers()
+            gauge_kpa = (p[chambers] - self.p_atm_pa) / 1000 / pressure_scale
+            v[chambers] += np.reshape(self.law_share[chambers], (-1,) + shape[1:]) * np.asarray(
+                self.law.volume_ml(gauge_kpa), float) * 1e-6
         return p * v / (R_AIR * self.temperature_k)
 
 

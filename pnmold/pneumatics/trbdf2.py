@@ -18,7 +18,10 @@ The metered gas is a quadrature (nothing depends on it): each stage takes it fro
 converged pressures with the method's own weights, outside the error control, so the
 network's linear invariant (metered gas = gas stored) holds as for any Runge-Kutta method.
 Outputs are cubic Hermite interpolants at the requested times; the first upward crossing of
-the bend angle through a level (full bend) is located on the same interpolant.
+the bend angle through a level (full bend) is located on the same interpolant. So is the
+law's end: the integration stops at the first time a chamber's pressure or the bend rises
+through the last the chamber law holds (past it the law is unknown); the outputs after it
+are NaN.
 """
 
 from __future__ import annotations
@@ -190,11 +193,30 @@ def _crossing(y0, f0, y1, f1, h, level):
 
 
 @nb.njit(cache=True)
-def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, max_steps, event_level):
+def _law_end(y, f0, z3, f3, h, nodes, share, stop_pa, stop_rad):
+    """(step fraction, what) of the first crossing within the step of a chamber's pressure through
+    ``stop_pa`` (what: its node) or of the bend through ``stop_rad`` (what: ``nodes``); (inf, -1) if none."""
+    first, what = math.inf, -1
+    for i in range(nodes + 1):
+        level = stop_rad if i == nodes else stop_pa
+        if (i == nodes or share[i] > 0) and y[i] < level <= z3[i]:
+            th = _crossing(y[i], f0[i], z3[i], f3[i], h, level)
+            if th < first:
+                first, what = th, i
+    return first, what
+
+
+@nb.njit(cache=True)
+def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, max_steps, event_level,
+              stop_pa, stop_rad):
     """States at ``t_out`` (sorted) over the segments [switch_s[k], switch_s[k + 1]) with
     valve phase ``phases[k]`` (rows before switch_s[0] keep ``y0``). Returns (states (rows x
     states), status (``OK``, ``UNDERFLOW``, ``TOO_MANY_STEPS``), steps taken, the first time
-    the bend angle rises through ``event_level`` (rad; NaN if it does not))."""
+    the bend angle rises through ``event_level`` (rad; NaN if it does not), the time the
+    integration stopped at the law's end (NaN if it did not) and what reached it (a chamber's
+    node, or ``nodes`` for the bend; -1)). The law's end: a chamber (a node with a share of the
+    law) rising through ``stop_pa`` (Pa, absolute) or the bend through ``stop_rad``; the rows
+    after it are NaN."""
     n = y0.size
     nodes = n - 3
     m = t_out.size
@@ -217,6 +239,7 @@ def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, ma
     mech = np.zeros(3)
     event_t = math.nan
     steps = 0
+    share = net.law_share
     for s in range(phases.size):
         t, t_end, phase = switch_s[s], switch_s[s + 1], phases[s]
         last = s == phases.size - 1
@@ -230,7 +253,7 @@ def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, ma
         while t < t_end:
             steps += 1
             if steps > max_steps:
-                return outs, TOO_MANY_STEPS, steps, event_t
+                return outs, TOO_MANY_STEPS, steps, event_t, math.nan, -1
             if t + h > t_end or t + 1.05 * h > t_end:
                 h = t_end - t
             if not keep:
@@ -257,7 +280,7 @@ def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, ma
                 keep = False
                 h *= 0.25
                 if h < 10.0 * EPS * max(abs(t), first_step):
-                    return outs, UNDERFLOW, steps, event_t
+                    return outs, UNDERFLOW, steps, event_t, math.nan, -1
                 continue
             for i in range(n):
                 est[i] = h * (e1 * f0[i] + e2 * f2[i] + e3 * f3[i])
@@ -266,13 +289,25 @@ def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, ma
             if size > 1.0:
                 h *= max(0.2, 0.9 * size ** (-1.0 / 3.0))
                 if h < 10.0 * EPS * max(abs(t), first_step):
-                    return outs, UNDERFLOW, steps, event_t
+                    return outs, UNDERFLOW, steps, event_t, math.nan, -1
                 continue
             t_new = t + h
             if t_new > t_end - 1e-15 * max(1.0, abs(t_end)):
                 t_new = t_end
+            cut, what = _law_end(y, f0, z3, f3, h, nodes, share, stop_pa, stop_rad)
             if math.isnan(event_t) and y[nodes] < event_level <= z3[nodes]:
-                event_t = t + h * _crossing(y[nodes], f0[nodes], z3[nodes], f3[nodes], h, event_level)
+                th = _crossing(y[nodes], f0[nodes], z3[nodes], f3[nodes], h, event_level)
+                if th <= cut:
+                    event_t = t + h * th
+            if what >= 0:  # the law ends within this step: the outputs up to there, NaN after
+                t_stop = t + h * cut
+                while k < m and t_out[k] <= t_stop:
+                    th = (t_out[k] - t) / h
+                    for i in range(n):
+                        outs[k, i] = _hermite(y[i], f0[i], z3[i], f3[i], h, th)
+                    k += 1
+                outs[k:] = np.nan
+                return outs, OK, steps, event_t, t_stop, what
             # outputs in (t, t_new] (t_new itself only if it stays in this segment or it is the last one)
             while k < m and (t_out[k] < t_new or (t_out[k] == t_new and (t_new < t_end or last))):
                 th = (t_out[k] - t) / h
@@ -289,4 +324,4 @@ def integrate(t_out, switch_s, phases, y0, net, mode, atol, rtol, first_step, ma
     while k < m:  # beyond the last segment
         outs[k] = y
         k += 1
-    return outs, OK, steps, event_t
+    return outs, OK, steps, event_t, math.nan, -1

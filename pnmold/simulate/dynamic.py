@@ -130,7 +130,7 @@ def run_step_study(design, rig: Rig, *, duration_s: float = 0.5, gas_law: str = 
     effects = dynamic_effects(effects if effects is not None else _rig_effects(rig))
     say = progress or log.info
     say(f"{design.name}: chamber law (FE free-bending curve)")
-    law = laws.chamber_law_for(design, progress=progress)
+    law = laws.chamber_law_for(design, up_to_kpa=rig.supply_kpa, progress=progress)
     say(f"step response: {duration_s:g} s at {rig.supply_kpa:g} kPa ({gas_law})")
     response = simulate_step(law, ActuatorLine.from_design(design), BendingDynamics.from_design(design), rig,
                              duration_s=duration_s)
@@ -194,7 +194,8 @@ def simulation_doc(design, rig: Rig, response: StepResponse, effects: Mapping[st
         "time_to_full_bend_s": None if response.time_to_full_bend_s is None
         else round(response.time_to_full_bend_s, 9),
         "reason": response.reason,
-        "full_bend_pressure_kpa": round(response.info["full_bend_pressure_kpa"], 6),
+        "full_bend_pressure_kpa": None if response.info["full_bend_pressure_kpa"] is None
+        else round(response.info["full_bend_pressure_kpa"], 6),
         "model_info": info,
         "series": series,
         "chamber_pressure_kpa": np.round(response.chamber_pressure_kpa, 6).tolist(),
@@ -219,12 +220,20 @@ def _title(design, rig: Rig, response: StepResponse) -> str:
 
 def _summary(response: StepResponse) -> list[str]:
     s, info = response.series, response.info
-    tfb = response.time_to_full_bend_s
-    return [f"time to full bend: {tfb * 1000:.1f} ms" if tfb is not None
+    tfb, end = response.time_to_full_bend_s, info["law_end"]
+    if info["full_bend_pressure_kpa"] is not None:
+        quasi = (f"quasi-static full bend at {info['full_bend_pressure_kpa']:.1f} kPa "
+                 f"({info['volume_change_at_full_bend_ml']:.2f} mL)")
+    else:
+        quasi = (f"quasi-static full bend: not reached within the FE's solved range (ends at "
+                 f"{end['pressure_kpa']:.4g} kPa, {end['bend_angle_deg']:.1f} deg: {end['reason']})")
+    stopped = info.get("stopped_by")
+    after = f"; then at {info['stopped_at_law_end_s'] * 1000:.1f} ms {stopped}" if stopped and tfb is not None else ""
+    return [f"time to full bend: {tfb * 1000:.1f} ms{after}" if tfb is not None
             else f"time to full bend: never ({response.reason})",
-            f"peak flow {np.max(s['flow_slpm']):.2f} SLPM; at {s['time_s'][-1]:g} s: inlet "
+            f"peak flow {np.max(s['flow_slpm']):.2f} SLPM; at {s['time_s'][-1]:g} s"
+            + (" (the end of the law: the run stops there)" if stopped else "") + f": inlet "
             f"{s['pressure_kpa'][-1]:.1f} kPa, far chamber {s['pressure_far_kpa'][-1]:.1f} kPa, "
             f"volume change {s['volume_ml'][-1]:.2f} mL, bend {s['bend_angle_deg'][-1]:.0f} deg",
-            f"quasi-static full bend at {info['full_bend_pressure_kpa']:.1f} kPa "
-            f"({info['volume_change_at_full_bend_ml']:.2f} mL); bending mode "
-            f"{info['natural_frequency_hz']:.1f} Hz, damping ratio {info['damping_ratio']:g} (assumed)"]
+            f"{quasi}; bending mode {info['natural_frequency_hz']:.1f} Hz, damping ratio "
+            f"{info['damping_ratio']:g} (assumed)"]

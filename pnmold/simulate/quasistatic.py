@@ -272,8 +272,7 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
     steps = [s for s, beyond in zip(steps, past, strict=True) if not beyond]
     fb, reason = _full_bend(steps)
     if past.any():
-        reason = (f"{characterisation.reason}; {int(past.sum())} of {len(past)} rows lie past it and are left "
-                  f"out (no equilibrium under pressure control)")
+        reason = _past_end_reason(characterisation, past)
     curled = [s for s in steps if s["bend_angle_deg"] > FULL_BEND_DEG]
     if curled:  # the free end has met the clamped end: a physical stop, not a bend the rod may go on with
         steps = [s for s in steps if s["bend_angle_deg"] <= FULL_BEND_DEG]
@@ -289,8 +288,9 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 
 
 def _run_to_maximum(model, protocol, effects) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """The reduced model's rows, and which lie past the FE's pressure maximum (no equilibrium there
-    under pressure control: left out of the document, said in its reason). Any other row without an
+    """The reduced model's rows, and which lie past the FE's last solved step (its pressure maximum: no
+    equilibrium there under pressure control; full bend, a physical stop or the pressure cap: the law is
+    not read past it): left out of the document, said in its reason. Any other row without an
     equilibrium is an error, as before. A protocol longer than :data:`ROM_ROWS_AT_ONCE` is solved in
     stretches of that many rows when no history effect is on (each row's state is its pressure's alone:
     the same rows), so its memory does not grow with the rows; with one on it is refused past
@@ -325,13 +325,20 @@ def _rows(protocol, a: int, b: int):
                    cycle=cut(protocol.cycle), phase=cut(protocol.phase))
 
 
+def _past_end_reason(characterisation, past: np.ndarray) -> str:
+    """Why rows past the FE's last solved step are left out, by how the FE's curve ended."""
+    rows = f"{int(past.sum())} of {len(past)} rows"
+    if characterisation.ends_at_pressure_maximum:
+        return f"{characterisation.reason}; {rows} lie past it and are left out (no equilibrium under pressure control)"
+    return (f"{rows} lie past the last pressure the FE solved ({characterisation.max_pressure_kpa:.4g} kPa on the "
+            f"free law: {characterisation.end_reason}) and are left out (the law is not read past it)")
+
+
 def _run_whole(model, protocol, effects) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """:func:`_run_to_maximum` of the protocol in one piece."""
     try:
         out = model.run(protocol, effects)
     except SolveError:
-        if not model.characterisation.ends_at_pressure_maximum:
-            raise
         out = model.run(protocol, effects, partial=True)
         past = out["pressure_excess"] > 0
         if not np.all(np.isfinite(out["bend_angle_deg"][~past])):
