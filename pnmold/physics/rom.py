@@ -11,7 +11,8 @@ Per protocol row, in this order (every step vectorised over the rows):
    stiffer rubber (:mod:`.response`), separately for the shape and for the volume; past the FE's
    pressure maximum, from the stiffening ladder (:mod:`.rom_ladder`). The law is read only up to
    the FE's last solved step, whatever ended it (full bend, a physical stop, the pressure cap): a
-   row past it is out of reach (:meth:`ReducedModel.run`'s ``partial``), never extrapolated.
+   row past it is out of reach (:meth:`ReducedModel.run`'s ``partial``), not extrapolated; the
+   one exception is a ladder run that met a bifurcation, read 10 % past its end (assumed, said).
 3. **Free shape**: each bottom-line edge's angle and length at ``p_eff`` from the FE steps
    (linear in pressure between steps); self-contact freezes the increments above its contact
    pressure down to 1/(1 + value).
@@ -58,7 +59,7 @@ from pnmold.physics.rom_effects import (
     stiffening,
     variant_responses,
 )
-from pnmold.physics.rom_ladder import ladder_characterisation, ladder_of
+from pnmold.physics.rom_ladder import LADDER_EXTRAPOLATION, ladder_characterisation, ladder_of
 from pnmold.physics.rom_law import free_law, interp, slope
 from pnmold.physics.section import rod_loads
 
@@ -288,7 +289,7 @@ class ReducedModel:
                "cavity_volume_ml": volume[:-1],
                "volume_ml": read_volume(volume[:-1] - volume[-1], volume[-1], p, m, v("dead_volume")),
                "max_principal_stretch": interp(t.p, t.stretch, law.p_vol[:-1]),
-               "beyond_fe": law.past[:-1].copy(),
+               "beyond_fe": law.past[:-1] | (law.p_bend[:-1] > t.p[-1] * (1.0 + PAST_END_SHARE)),
                "pressure_excess": law.excess[:-1]}
         if protocol.kind == "force":
             out["force_n"] = state.force_n[:-1]
@@ -313,13 +314,16 @@ class ReducedModel:
         pressure maximum the actuator has no equilibrium under pressure control (it snaps); at full bend
         the free end meets the clamped end; past a physical stop or the pressure cap the FE did not solve
         (:attr:`pnmold.physics.characterisation.Characterisation.how_ended`). The share says how far out
-        of reach the row is."""
+        of reach the row is. (A laddered model whose runs met a bifurcation: :meth:`_reach_kpa`.)"""
         top = self._reach_kpa()
         return np.where(p_read > top * (1.0 + PAST_END_SHARE), 1.0 - top / np.maximum(p_read, top), 0.0)
 
     def _reach_kpa(self) -> float:
-        """The free law's last solved pressure: past it a row is out of reach."""
-        return float(self.tables.p[-1])
+        """The free law's last solved pressure: past it a row is out of reach. The one exception: a laddered
+        model whose runs ended at a bifurcation is read :data:`LADDER_EXTRAPOLATION` past their end (assumed,
+        flagged ``beyond_fe``; see there)."""
+        c, top = self.characterisation, float(self.tables.p[-1])
+        return top * (1.0 + LADDER_EXTRAPOLATION) if c.source == "ladder" and c.how_ended == "instability" else top
 
     def _equilibria(self, angle: np.ndarray, length: np.ndarray, comp: np.ndarray, gxz: tuple[float, float],
                     plane: float | None, partial: bool) -> RodState:
