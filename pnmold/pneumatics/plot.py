@@ -29,6 +29,10 @@ def plot_step(response: StepResponse, title: str, path: str | Path | None = None
     top.plot(t_ms, s["pressure_kpa"], lw=1.6, label="inlet")
     top.plot(t_ms, s["pressure_near_kpa"], lw=1.2, label="chamber 1 (near)")
     top.plot(t_ms, s["pressure_far_kpa"], lw=1.2, label=f"chamber {response.chamber_pressure_kpa.shape[1]} (far)")
+    end = response.info.get("law_end")
+    if end:  # the chamber law is known up to the FE's last solved step: no chamber passes it
+        top.axhline(end["pressure_kpa"], color="grey", ls="--", lw=0.8,
+                    label=f"FE's last step ({end['stop'].replace('_', ' ')})")
     top.set_ylabel("pressure (kPa, gauge)")
     top.legend(fontsize=8)
     axes[1].plot(t_ms, s["flow_slpm"], lw=1.4)

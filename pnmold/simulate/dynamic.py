@@ -215,7 +215,16 @@ def _plot_path(design, plot_path, json_path, recording_path) -> Path:
 def _title(design, rig: Rig, response: StepResponse) -> str:
     tfb = response.time_to_full_bend_s
     head = f"{design.name}: {rig.supply_kpa:g} kPa supply, tubing {rig.tubing_length_mm:g} mm x {rig.tubing_id_mm:g} mm"
-    return head + (f"; full bend at {tfb * 1000:.1f} ms" if tfb is not None else f"; {response.reason}")
+    info, end = response.info, response.info["law_end"]
+    if tfb is not None:
+        return head + f"; full bend at {tfb * 1000:.1f} ms"
+    if info.get("stopped_at_law_end_s") is not None:  # the reason in full is in the summary and the JSON
+        return head + (f"; no full bend: ends at {info['stopped_at_law_end_s'] * 1000:.1f} ms where the FE's law "
+                       f"ends ({end['pressure_kpa']:.4g} kPa, {end['stop'].replace('_', ' ')})")
+    if info["full_bend_pressure_kpa"] is None:
+        return head + (f"; full bend not within the FE's solved range (ends at {end['pressure_kpa']:.4g} kPa, "
+                       f"{end['bend_angle_deg']:.1f} deg, {end['stop'].replace('_', ' ')})")
+    return head + f"; {response.reason}"
 
 
 def _summary(response: StepResponse) -> list[str]:
