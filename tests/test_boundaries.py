@@ -142,7 +142,7 @@ ROOMS = [
     ("pnmold.conventions", "pnmold.effects", "pnmold.frames", "pnmold.plots"),
     ("pnmold.recording",),
     ("pnmold.materials",),
-    ("pnmold.design",),
+    ("pnmold.design", "pnmold.track"),
     ("pnmold.cad", "pnmold.checks", "pnmold.tetmesh"),
     ("pnmold.mesh", "pnmold.fem"),
     ("pnmold.design_fe",),

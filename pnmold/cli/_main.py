@@ -24,6 +24,7 @@ from pnmold.cli import (
     simulate,
     sweep,
     templates,
+    track,
 )
 from pnmold.cli._common import err_console, output_flags, stdout_for_json
 from pnmold.cli._interrupts import noting_interrupts
@@ -33,7 +34,7 @@ from pnmold.version import __version__
 #: verb -> its module, in the order ``--help`` lists them
 VERBS = {"build": build, "check": check, "report": report, "simulate": simulate, "checklist": checklist,
          "material": material, "sweep": sweep, "diagnose": diagnose, "effects": effects, "templates": templates,
-         "recording": recording, "export": export, "docs": docs}
+         "recording": recording, "track": track, "export": export, "docs": docs}
 
 
 def make_parser() -> argparse.ArgumentParser:
