@@ -182,3 +182,28 @@ def test_the_real_photographs_give_the_recorded_final_angle_within_8_degrees(tmp
     final = json.loads((tmp_path / "t.json").read_text())["frames"][-1]
     assert final["accepted"]
     assert final["bend_angle_deg"] == pytest.approx(72.19, abs=8.0)
+
+
+def test_a_video_with_a_pressure_log_gives_each_frame_its_time_and_pressure(tmp_path):
+    import imageio.v2 as iio
+
+    from pnmold.recording import read_recording
+
+    clip = tmp_path / "clip.mp4"
+    with iio.get_writer(clip, format="FFMPEG", fps=2, codec="libx264", macro_block_size=2, pixelformat="yuv444p",
+                        output_params=["-crf", "0"]) as w:  # lossless: what is tested is the timing
+        for i, angle in enumerate(ANGLES[:3]):
+            w.append_data(draw(angle, seed=i)[0][..., ::-1])
+    log = tmp_path / "log.csv"
+    log.write_text("# a logger's file\ntime_s;pressure_psi\n0;0\n0,5;1\n1;2\n1,5;3\n")
+    rec = tmp_path / "rec.csv"
+    code = main(["track", str(clip), "--base", f"{BASE[0]},{BASE[1] + THICK_PX / 2:.0f}", "--tip",
+                 f"{BASE[0] + LENGTH_PX:.0f},{BASE[1] + THICK_PX / 2:.0f}", "--pressure-log", str(log),
+                 "--offset-s", "0.25", "--scale-mm-per-px", str(MM_PER_PX), "--recording", str(rec), "-q"])
+    assert code == 0
+    r = read_recording(rec)
+    assert len(r) >= 2 and r["time_s"][0] == 0.0 and r["bend_angle_deg"][0] == pytest.approx(0.0, abs=2.0)
+    frames = np.rint(r["time_s"] * 2).astype(int)  # 2 frames a second
+    assert list(r["time_s"]) == pytest.approx(list(frames / 2.0))
+    assert list(r["pressure_kpa"]) == pytest.approx(list((frames + 0.5) * 6.894757), rel=1e-4)  # psi at t + 0.25 s
+    assert list(r["bend_angle_deg"]) == pytest.approx([ANGLES[i] for i in frames], abs=2.0)

@@ -88,11 +88,12 @@ def contact_sheet(drawn: list[tuple[np.ndarray, TrackedFrame]]) -> np.ndarray:
         return np.full((40, THUMB_WIDTH_PX, 3), 255, np.uint8)
     h, w = drawn[0][0].shape[:2]
     th = max(1, round(h * THUMB_WIDTH_PX / w))
-    rows = -(-len(drawn) // SHEET_COLUMNS)
-    sheet = np.full((rows * (th + 6), SHEET_COLUMNS * (THUMB_WIDTH_PX + 6), 3), 255, np.uint8)
+    columns = min(SHEET_COLUMNS, len(drawn))
+    rows = -(-len(drawn) // columns)
+    sheet = np.full((rows * (th + 6), columns * (THUMB_WIDTH_PX + 6), 3), 255, np.uint8)
     for k, (image, result) in enumerate(drawn):
         thumb = cv2.resize(image, (THUMB_WIDTH_PX, th), interpolation=cv2.INTER_AREA)
-        r, c = divmod(k, SHEET_COLUMNS)
+        r, c = divmod(k, columns)
         y, x = r * (th + 6) + 3, c * (THUMB_WIDTH_PX + 6) + 3
         sheet[y:y + th, x:x + THUMB_WIDTH_PX] = thumb
         colour = (0, 160, 0) if result.accepted else (0, 0, 255)
