@@ -4,6 +4,8 @@ the two test workers share them: ``--dist loadfile`` keeps a file on one worker)
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from pnmold.physics import Protocol, ReducedModel
@@ -48,8 +50,10 @@ def rom_carries_the_fe_response(live, name: str, effect: str, value: float,
     compliance, or between the two; C20 + 0.1 MPa, the bound), at the characterisation's pressures,
     against the reduced model reading the variants: the change over the nominal, in bend, cavity
     volume and tip position, within 20 % of the FE's largest change at every step; and the effect
-    shows (``shows``: degrees, ml). The sPN's layer bends it less and lengthens it. Returns the
-    checks that failed."""
+    shows (``shows``: degrees, ml). The sPN's layer bends it less and lengthens it. A step where the effect
+    reads the free law past the characterisation's last pressure (a layer reads it further on) is out of
+    the reduced model's reach (issue 43: no law past the FE's last solved step) and left out; only the
+    last third may be. Returns the checks that failed."""
     from pnmold.design_fe import run_fe
 
     design, c, step = live(name)
@@ -59,8 +63,16 @@ def rom_carries_the_fe_response(live, name: str, effect: str, value: float,
     checks = {"the FE reached the characterisation's last pressure": bool(np.isclose(p[-1], c.pressure_kpa[-1]))}
     rom = ReducedModel(design, c)
     proto = Protocol("bending", p, "none")
-    base, with_effect = rom.run(proto, {"gravity": 0.0}), rom.run(proto, {"gravity": 0.0, effect: value})
-    fe_steps = {key: np.array([getattr(s, key) for s in fe.steps]) for key in base if hasattr(fe.steps[0], key)}
+    base = rom.run(proto, {"gravity": 0.0}, partial=True)
+    with_effect = rom.run(proto, {"gravity": 0.0, effect: value}, partial=True)
+    inside = (base["pressure_excess"] <= 0) & (with_effect["pressure_excess"] <= 0)
+    checks[f"the reduced model reaches two thirds of the steps ({int(inside.sum())} of {inside.size})"] = bool(
+        inside[:2 * inside.size // 3].all())
+    base, with_effect = ({k: v[inside] for k, v in run.items()} for run in (base, with_effect))
+    fe_steps = {key: np.array([getattr(s, key) for s in fe.steps])[inside] for key in base
+                if hasattr(fe.steps[0], key)}
+    c = replace(c, **{key: getattr(c, key)[:len(inside)][inside] for key in ("bend_angle_deg", "cavity_volume_ml",
+                                                                             "tip_x_mm", "tip_z_mm")})
     for key, least in zip(("bend_angle_deg", "cavity_volume_ml"), shows, strict=True):
         fe_change = fe_steps[key] - getattr(c, key)
         rom_change = with_effect[key] - base[key]
