@@ -309,6 +309,26 @@ def test_export_abaqus_from_a_build_folder(built, tmp_path):
     assert doc["neo_hookean"]["mu_mpa"] == pytest.approx(2 * doc["yeoh"]["c10_mpa"])
 
 
+def test_the_deck_pairs_the_facing_walls_of_each_gap(built, tmp_path):
+    """--contact-mpa-per-mm: one frictionless contact pair per gap between the fPN's chambers (its
+    wall facing +x the slave, -x the master), the penalty as given; a penalty <= 0 is refused."""
+    from pnmold.cli import main
+    from pnmold.design import load_design
+
+    folder = built("fpn").out_dir
+    out = tmp_path / "deck"
+    assert main(["export", str(folder), "--pressures", "0:6:6", "--orientation", "none", "--out", str(out),
+                 "--contact-mpa-per-mm", "10", "-q"]) == 0
+    text = (out / "actuator.inp").read_text()
+    pairs = re.findall(r"^\*CONTACT PAIR, INTERACTION=WALLS, TYPE=SURFACE TO SURFACE\nGAP(\d+)_SLAVE, GAP\1_MASTER$",
+                       text, flags=re.MULTILINE)
+    assert len(pairs) == load_design("fpn").chambers.count - 1
+    assert "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n10\n" in text
+    assert text.index("*CONTACT PAIR") < text.index("*STEP")  # model data, before the step
+    assert main(["export", str(folder), "--pressures", "0:6:6", "--out", str(tmp_path / "bad"),
+                 "--contact-mpa-per-mm", "0", "-q"]) == 2
+
+
 def test_export_sofa_from_a_build_folder(built, tmp_path):
     import meshio
 

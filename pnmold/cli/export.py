@@ -31,6 +31,9 @@ def add_args(parser) -> None:
     deck.add_argument("--layer", choices=list(LAYER_ELEMENTS), default="M3D6",
                       help="the paper: M3D6 membranes (default, as pnmold), S6 shells or C3D15 wedges "
                       "(with the sheet's bending stiffness)")
+    deck.add_argument("--contact-mpa-per-mm", type=float, metavar="K",
+                      help="the facing walls of each gap between chambers as frictionless contact pairs with this "
+                      "penalty (e.g. 10, pnmold's own); default: no contact")
 
 
 def run(args) -> int:
@@ -43,7 +46,8 @@ def run(args) -> int:
 
         check_replaceable(args.out)
     pressures = parse_pressures(args.pressures) if args.pressures else None
-    options = DeckOptions(solver=args.solver, solid=args.element, layer=args.layer)
+    options = DeckOptions(solver=args.solver, solid=args.element, layer=args.layer,
+                          contact_mpa_per_mm=args.contact_mpa_per_mm)
     with stages(args, f"export {args.format}") as say:
         say("mesh and write")
         done = export_build(args.dir, args.format, out_dir=args.out, pressures_kpa=pressures,

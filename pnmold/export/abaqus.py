@@ -39,6 +39,11 @@ What the deck holds, and how it differs from pnmold's own solve (:mod:`pnmold.fe
   deformed faces in a geometrically nonlinear step, in both solvers (a follower load, as
   pnmold's).
 - **Supports**: ``CLAMP`` fixed (1-3), ``SYMMETRY`` u_y = 0 (half model).
+- **Contact** (``DeckOptions.contact_mpa_per_mm``, off by default): the facing walls of each gap
+  between neighbouring chambers (:mod:`.contact_pairs`) as element-face surfaces
+  ``GAPk_SLAVE`` (the wall facing +x) and ``GAPk_MASTER`` (-x) in a frictionless ``*CONTACT
+  PAIR, TYPE=SURFACE TO SURFACE`` each, a linear penalty (CalculiX) where pnmold's own is a
+  smooth one that starts 0.1 mm before touch (:mod:`pnmold.fem.contact`).
 - **Output** at the target times (``*TIME POINTS, NAME=TARGETS``: after gravity, then each
   pressure; the increments are cut to hit them): the ``TIP`` displacement (``*NODE PRINT``,
   ``.dat``), U and S, E (``.frd``). CalculiX takes ``TIME POINTS`` on each request; for
@@ -86,6 +91,10 @@ class DeckOptions:
     initial_increment, min_increment, max_increment : in time units of the load history
         (one unit per load stage: gravity, then each pressure).
     max_increments : ``INC`` of the step.
+    contact_mpa_per_mm : the facing walls of each gap between neighbouring chambers as a
+        frictionless contact pair (:mod:`.contact_pairs`), surface to surface, with this
+        penalty (CalculiX: ``PRESSURE-OVERCLOSURE=LINEAR``; Abaqus: its default penalty of
+        ``HARD``); None: no contact, the walls pass through each other.
     """
 
     solver: str = "calculix"
@@ -95,6 +104,7 @@ class DeckOptions:
     min_increment: float = 1e-5
     max_increment: float = 0.25
     max_increments: int = 1000
+    contact_mpa_per_mm: float | None = None
 
     def __post_init__(self) -> None:
         if self.solver not in SOLVERS:
@@ -105,6 +115,8 @@ class DeckOptions:
             raise UsageError(f"layer element: one of {', '.join(LAYER_ELEMENTS)}, got {self.layer!r}")
         if not 0 < self.min_increment <= self.initial_increment <= self.max_increment <= 1:
             raise UsageError("increments: need 0 < min <= initial <= max <= 1")
+        if self.contact_mpa_per_mm is not None and not self.contact_mpa_per_mm > 0:
+            raise UsageError(f"contact penalty: must be > 0 MPa/mm, got {self.contact_mpa_per_mm!r}")
 
 
 def abaqus_deck(qmesh: QuadraticMesh, material: Yeoh, membrane: Membrane | None, *,
@@ -149,6 +161,8 @@ def abaqus_deck(qmesh: QuadraticMesh, material: Yeoh, membrane: Membrane | None,
             if len(held):
                 out += [f"*NSET, NSET=PAPER_{name.upper()}", *_ids(held + 1), "*BOUNDARY",
                         f"PAPER_{name.upper()}, {dofs}"]
+    if o.contact_mpa_per_mm is not None:
+        out += _contact(qmesh, o)
     out += _steps(qmesh, {name: rubber for name, (_, rubber) in solids.items()}, targets, gravity_g, o)
     return "\n".join(out) + "\n"
 
@@ -247,16 +261,40 @@ def _boundary_sets(qmesh: QuadraticMesh) -> list[str]:
         label = name.upper()
         out.append(f"*NSET, NSET={label}")
         out += _ids(np.unique(qmesh.facet_nodes(name)) + 1)
-        cells, faces = qmesh.facet_faces(name)
-        surface = []
-        for k in range(1, 5):
-            sel = np.unique(cells[faces == k]) + 1
-            if len(sel):
-                out.append(f"*ELSET, ELSET={label}_S{k}")
-                out += _ids(sel)
-                surface.append(f"{label}_S{k}, S{k}")
-        out += [f"*SURFACE, NAME=S_{label}, TYPE=ELEMENT", *surface]
+        out += _surface(f"S_{label}", label, *qmesh.facet_faces(name))
     out += ["*NSET, NSET=TIP", str(tip_node(qmesh) + 1)]
+    return out
+
+
+def _surface(name: str, label: str, cells: np.ndarray, faces: np.ndarray) -> list[str]:
+    """An element-face surface ``name`` over element sets ``LABEL_S1`` .. ``LABEL_S4`` (the
+    elements with face k in it)."""
+    out, surface = [], []
+    for k in range(1, 5):
+        sel = np.unique(cells[faces == k]) + 1
+        if len(sel):
+            out.append(f"*ELSET, ELSET={label}_S{k}")
+            out += _ids(sel)
+            surface.append(f"{label}_S{k}, S{k}")
+    return out + [f"*SURFACE, NAME={name}, TYPE=ELEMENT", *surface]
+
+
+def _contact(qmesh: QuadraticMesh, o: DeckOptions) -> list[str]:
+    """Each gap's facing walls as a frictionless surface-to-surface contact pair."""
+    from .contact_pairs import gap_pairs
+
+    pairs = gap_pairs(qmesh.mesh)
+    if not pairs:
+        raise ExportError("contact", "the body has no facing walls across a gap between chambers to pair")
+    out = [f"** self-contact: the facing walls of {len(pairs)} gaps (slave: the wall facing +x, master: -x)"]
+    for k, pair in enumerate(pairs, start=1):
+        out += _surface(f"GAP{k}_SLAVE", f"GAP{k}_SL", *qmesh.faces_of(pair.slave))
+        out += _surface(f"GAP{k}_MASTER", f"GAP{k}_MA", *qmesh.faces_of(pair.master))
+    behaviour = (["*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=HARD"] if o.solver == "abaqus" else
+                 ["*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR", f"{o.contact_mpa_per_mm:.9g}"])
+    out += ["*SURFACE INTERACTION, NAME=WALLS", *behaviour]
+    for k in range(1, len(pairs) + 1):
+        out += ["*CONTACT PAIR, INTERACTION=WALLS, TYPE=SURFACE TO SURFACE", f"GAP{k}_SLAVE, GAP{k}_MASTER"]
     return out
 
 

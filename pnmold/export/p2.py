@@ -90,7 +90,11 @@ class QuadraticMesh:
 
     def facet_faces(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(cell index, face number 1..4) of each facet of a named set (C3D10 faces S1..S4)."""
-        f = np.asarray(self.mesh.facets.get(name, np.zeros((0, 3), int)), dtype=np.int64)
+        return self.faces_of(self.mesh.facets.get(name, np.zeros((0, 3), int)), name)
+
+    def faces_of(self, facets: np.ndarray, name: str = "facets") -> tuple[np.ndarray, np.ndarray]:
+        """(cell index, face number 1..4) of each of ``facets`` ((k, 3) linear corners)."""
+        f = np.asarray(facets, dtype=np.int64).reshape(-1, 3)
         n = self.mesh.n_nodes
         corners = self.cells[:, :4]
         keys, where = [], []
