@@ -9,6 +9,11 @@ Needs ``ccx`` (Debian ``calculix-ccx``; ``scripts/install-system-deps.sh``).
 
     .venv/bin/python benchmarks/calculix.py [--pressures 2,4,6,8] [--size WALL,MAX] [--gravity]
                                             [--layer M3D6|S6|C3D15] [--threads N] [--keep DIR]
+                                            [--contact K]
+
+``--contact K``: pnmold solves with its self-contact (``SelfContact``, penalty K MPa/mm) and the
+deck pairs the facing walls of each gap with a linear penalty of K (``pnmold export
+--contact-mpa-per-mm``).
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from pnmold.design import load_design  # noqa: E402
 from pnmold.design_fe import BUILD_MESH, run_fe  # noqa: E402
 from pnmold.export.abaqus import DeckOptions  # noqa: E402
 from pnmold.export.calculix import compare_with_calculix, find_ccx  # noqa: E402
+from pnmold.fem import SelfContact  # noqa: E402
+from pnmold.fem.solver import SolveOptions  # noqa: E402
 from pnmold.tetmesh import MeshSize  # noqa: E402
 
 
@@ -36,6 +43,7 @@ def main() -> None:
     parser.add_argument("--layer", default="M3D6", choices=["M3D6", "S6", "C3D15"])
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--keep", metavar="DIR", help="keep the deck and CalculiX's files here")
+    parser.add_argument("--contact", type=float, metavar="K", help="self-contact with this penalty (MPa/mm)")
     args = parser.parse_args()
     if find_ccx() is None:
         sys.exit("ccx not found: bash scripts/install-system-deps.sh (Debian calculix-ccx)")
@@ -47,14 +55,17 @@ def main() -> None:
         step = export_actuator_step(design, tmp)
         t0 = time.perf_counter()
         run = run_fe(design, step_path=step, size=size, pressures_kpa=pressures,
-                     orientation="chambers_up" if args.gravity else "none")
+                     orientation="chambers_up" if args.gravity else "none",
+                     options=SolveOptions(self_contact=SelfContact(penalty_mpa_per_mm=args.contact)
+                                          if args.contact else None))
         fe_s = time.perf_counter() - t0
-        cmp = compare_with_calculix(run, folder, pressures, options=DeckOptions(layer=args.layer),
-                                    threads=args.threads)
+        deck = DeckOptions(layer=args.layer, contact_mpa_per_mm=args.contact)
+        cmp = compare_with_calculix(run, folder, pressures, options=deck, threads=args.threads)
     s = run.solution.stats
     print(f"fPN, mesh {size.wall_mm:g}/{size.max_mm:g} mm (half model): {run.quality.n_tets} tets, "
           f"{s.get('unknowns')} unknowns (pnmold), paper as {args.layer}, "
-          f"{'gravity first' if args.gravity else 'no gravity'}")
+          f"{'gravity first' if args.gravity else 'no gravity'}"
+          + (f", self-contact {args.contact:g} MPa/mm (pnmold's, the deck's gap walls)" if args.contact else ""))
     print(f"time: pnmold {fe_s:.1f} s (mesh {run.timings_s['mesh']:.1f} s), pnmold pointwise "
           f"{cmp.pointwise_s:.1f} s, CalculiX {cmp.calculix.seconds:.1f} s ({cmp.calculix.increments} increments, "
           f"{args.threads} threads)")

@@ -175,10 +175,11 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     """Export ``run``'s problem (a :class:`pnmold.design_fe.FeRun`: its mesh, material, paper and
     gravity) at ``pressures_kpa`` into ``folder/actuator.inp``, run CalculiX on it and set its
     tip beside the run's (and, with ``pointwise``, beside pnmold's solve with the pointwise
-    volumetric penalty of CalculiX's C3D10). The run must have converged at those pressures."""
+    volumetric penalty of CalculiX's C3D10, with pnmold's self-contact at the deck's penalty where
+    the deck has contact pairs). The run must have converged at those pressures."""
     import dataclasses
 
-    from pnmold.fem import solve_bending
+    from pnmold.fem import SelfContact, solve_bending
     from pnmold.fem.newton import NewtonOptions
     from pnmold.fem.solver import SolveOptions
 
@@ -204,11 +205,14 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     rest = np.array([run.mesh.tip_mm[0], run.mesh.tip_mm[2]])
     theirs = ccx.tip_mm[:, [0, 2]] + rest
     penalty, seconds = None, None
+    k = getattr(options, "contact_mpa_per_mm", None)
+    contact = SelfContact(penalty_mpa_per_mm=k) if k is not None else None
     if pointwise:
         t0 = time.perf_counter()
         sol = solve_bending(run.mesh, dataclasses.replace(material, volumetric="penalty"), membrane,
                             pressures_kpa=targets, gravity=run.gravity_g,
-                            options=SolveOptions(newton=NewtonOptions(predictor_order=POINTWISE_PREDICTOR_ORDER)),
+                            options=SolveOptions(newton=NewtonOptions(predictor_order=POINTWISE_PREDICTOR_ORDER),
+                                                 self_contact=contact),
                             regions={k: dataclasses.replace(m, volumetric="penalty") for k, m in regions.items()})
         seconds = time.perf_counter() - t0
         penalty = tips_at(sol.steps)
