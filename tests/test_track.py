@@ -133,6 +133,23 @@ def test_the_overlay_holds_every_frame_and_a_contact_sheet_and_is_refused_when_f
     assert code == 2 and (foreign / "notes.txt").is_file() and not (tmp_path / "r.csv").exists()
 
 
+def test_the_build_report_shows_an_overlay_written_into_the_build_folder(tracked, built, tmp_path):
+    """`pnmold track ... --overlay BUILD/tracking`, then `pnmold report BUILD`: the page has a camera
+    tracking section with the contact sheet and what the overlay's summary says."""
+    import shutil
+
+    _, _, doc, overlay, _ = tracked
+    folder = tmp_path / "fpn"
+    shutil.copytree(built("fpn").out_dir, folder)
+    assert "Camera tracking" not in (folder / "report.html").read_text()  # none without an overlay
+    shutil.copytree(overlay, folder / "tracking")
+    assert main(["report", str(folder), "-q"]) == 0
+    page = (folder / "report.html").read_text()
+    assert "Camera tracking" in page and "<code>tracking/</code>" in page
+    assert f"{doc['frames_accepted']} of {doc['frames_total']} frames accepted" in page
+    assert doc["frames_accepted"] == 4 and doc["frames_total"] == 5
+
+
 def test_a_grid_behind_the_body_gives_the_scale():
     from pnmold.track import find_grid
 

@@ -259,6 +259,27 @@ def _checklist(folder: Path, report: dict[str, Any]) -> str:
     return link + f"<iframe class='checklist' title='checklist' srcdoc='{esc(doc)}' onload=\"{fit}\"></iframe>"
 
 
+def _tracking(folder: Path) -> str:
+    """The contact sheet of each ``pnmold track`` overlay written into a sub-folder of the build
+    folder (``--overlay DIR/tracking``), with what its summary says; '' when there is none."""
+    figures = []
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+        sheet, summary = sub / "contact_sheet.png", sub / "tracking.json"
+        if not (sheet.is_file() and summary.is_file()):
+            continue
+        try:
+            doc = read_json(summary, "tracking summary")
+        except PnmoldError as err:
+            figures.append(not_computed(f"{sub.name}/: {err}"))
+            continue
+        scale = doc.get("scale") or {}
+        caption = (f"<code>{esc(sub.name)}/</code>: {doc.get('frames_accepted')} of {doc.get('frames_total')} "
+                   f"frames accepted ({esc(doc.get('footage', ''))}); scale {esc(_fmt(scale.get('mm_per_px')))} "
+                   f"mm/px from {esc(scale.get('source', '?'))}; recording {esc(doc.get('recording', '?'))}")
+        figures.append(image(sheet.read_bytes(), f"tracking {sub.name}", caption))
+    return "".join(figures)
+
+
 def picture_jobs(folder: str | Path) -> dict[str, tuple]:
     """The report's pictures of ``folder`` as :mod:`pnmold.report.render` jobs: each part whose STL is
     there, and the strain on the bent actuator once ``fem_field.npz`` is."""
@@ -311,6 +332,9 @@ def report_page(folder: str | Path, report: dict[str, Any] | None = None,
         ("slicer", "Print estimates and pours", _slicer(report) + _pours(report)),
         ("checklist", "Checklist", _checklist(folder, report)),
     ]
+    tracked = _drawn("the camera tracking", lambda: _tracking(folder))
+    if tracked:
+        sections.insert(3, ("tracking", "Camera tracking", tracked))
     return page(f"pnmold build: {design.get('name', folder.name)}", sections, subtitle=subtitle,
                 head=model_viewer_head())
 

@@ -76,6 +76,11 @@ def _xy(point) -> str:
     return f"({point[0]:.0f},{point[1]:.0f})"
 
 
+#: the summary beside an overlay's pictures (``pnmold report`` shows the contact sheet of an
+#: overlay folder inside a build folder, with it)
+OVERLAY_SUMMARY = "tracking.json"
+
+
 def write_outputs(tracking: Tracking, frames: list[Frame] | None, recording: str | Path, *, kind: str = "bending",
                   design: str | None = None, orientation: str | None = None, json_path: str | Path | None = None,
                   overlay: str | Path | None = None) -> dict:
@@ -94,6 +99,7 @@ def write_outputs(tracking: Tracking, frames: list[Frame] | None, recording: str
                 (folder / f"frame_{frame.index:04d}.png").write_bytes(encode_png(image))
                 drawn.append((image, result))
             (folder / "contact_sheet.png").write_bytes(encode_png(contact_sheet(drawn)))
+            write_json(folder / OVERLAY_SUMMARY, doc)  # the build report's caption (pnmold report)
     text = recording_text(tracking, kind, design, orientation)
     write_text(recording, text)
     if json_path is not None:
