@@ -329,6 +329,27 @@ def test_the_deck_pairs_the_facing_walls_of_each_gap(built, tmp_path):
                  "--contact-mpa-per-mm", "0", "-q"]) == 2
 
 
+def test_the_gaps_walls_face_each_other_across_the_designs_gap(built):
+    """gap_pairs on the fPN's coarse mesh: one pair per gap, the slave wall's outward normals along
+    +x, the master's along -x, the two walls the design's gap apart, each wall a full chamber wall."""
+    from pnmold.design import load_design
+    from pnmold.export.contact_pairs import gap_pairs
+    from pnmold.mesh import mesh_actuator
+    from pnmold.tetmesh import MeshSize
+
+    design = load_design("fpn")
+    mesh, _ = mesh_actuator(built("fpn").out_dir / "actuator.step", design, MeshSize(5.0, 10.0))
+    pairs = gap_pairs(mesh)
+    assert len(pairs) == design.chambers.count - 1
+    x = mesh.nodes_mm
+    for pair in pairs:
+        assert pair.x_mm[1] - pair.x_mm[0] == pytest.approx(design.chambers.gap_mm, abs=0.05)
+        for facets, sign in ((pair.slave, 1.0), (pair.master, -1.0)):
+            n = np.cross(x[facets[:, 1]] - x[facets[:, 0]], x[facets[:, 2]] - x[facets[:, 0]])
+            assert np.all(sign * n[:, 0] / np.linalg.norm(n, axis=1) > 0.9)
+            assert np.ptp(x[facets][..., 2]) > 0.5 * design.chambers.height_mm  # the wall, not a sliver
+
+
 def test_export_sofa_from_a_build_folder(built, tmp_path):
     import meshio
 
