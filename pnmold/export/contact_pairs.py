@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pnmold.tetmesh import CAVITY, SYMMETRY, TetMesh
+from pnmold.fem.contact import outer_faces
+from pnmold.tetmesh import TetMesh
 
 #: a facet counts as facing along x where its normal is within ~25 degrees of it
 ALONG_X = 0.9
@@ -59,13 +60,7 @@ def outward_boundary(mesh: TetMesh) -> np.ndarray:
 
 def gap_pairs(mesh: TetMesh, max_gap_mm: float = MAX_GAP_MM) -> list[GapPair]:
     """The facing walls of each gap between neighbouring chambers (module notes), by x."""
-    tri = outward_boundary(mesh)
-    held = [np.sort(np.asarray(mesh.facets[k], np.int64), axis=1) for k in (CAVITY, SYMMETRY)
-            if len(mesh.facets.get(k, ()))]
-    if held:
-        n = mesh.n_nodes
-        keys = lambda f: (f[:, 0] * n + f[:, 1]) * n + f[:, 2]  # noqa: E731
-        tri = tri[~np.isin(keys(np.sort(tri, axis=1)), keys(np.vstack(held)))]
+    tri = outer_faces(outward_boundary(mesh), mesh.facets)  # less the cavity and the symmetry plane
     x = mesh.nodes_mm
     normal = np.cross(x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]])
     nx = normal[:, 0] / np.linalg.norm(normal, axis=1)
