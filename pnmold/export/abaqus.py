@@ -285,7 +285,8 @@ def _contact(qmesh: QuadraticMesh, o: DeckOptions) -> list[str]:
 
     pairs = gap_pairs(qmesh.mesh)
     if not pairs:
-        raise ExportError("contact", "the body has no facing walls across a gap between chambers to pair")
+        raise UsageError("--contact-mpa-per-mm: the body has no facing walls across a gap between chambers "
+                         "to pair (an sPN's chambers share their walls); export it without contact")
     out = [f"** self-contact: the facing walls of {len(pairs)} gaps (slave: the wall facing +x, master: -x)"]
     for k, pair in enumerate(pairs, start=1):
         out += _surface(f"GAP{k}_SLAVE", f"GAP{k}_SL", *qmesh.faces_of(pair.slave))
