@@ -107,10 +107,11 @@ def _stage(name: str, timings: dict[str, float], say: Progress) -> Iterator[None
 
 def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True,
           use_slicer: bool = True, progress: Progress | None = None,
-          fem_size: MeshSize | None = None) -> BuildResult:
+          fem_size: MeshSize | None = None, self_contact: bool = False) -> BuildResult:
     """Build every part of ``design`` into ``out_dir`` (default ``out/<name>/``).
 
-    ``fem_size`` overrides the quick FE's mesh size (default :data:`pnmold.design_fe.BUILD_MESH`)."""
+    ``fem_size`` overrides the quick FE's mesh size (default :data:`pnmold.design_fe.BUILD_MESH`);
+    ``self_contact`` keeps the quick FE's walls apart (:class:`pnmold.fem.SelfContact`, its defaults)."""
     from pnmold.cad import export_parts, make_parts
 
     say = progress or (lambda stage: None)
@@ -136,7 +137,7 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
             report["fem"]["reason"] = "skipped: a design-rule check failed"
         else:
             with _stage("fem", timings, say):
-                report["fem"] = _quick_fe(design, tmp, fem_size)
+                report["fem"] = _quick_fe(design, tmp, fem_size, self_contact)
             if report["fem"].get("stop") == "failed":  # the parts stand; the FE's reason is reported
                 say(f"quick FE failed: {report['fem']['reason']}")
         write_json(tmp / "report.json", report)
@@ -147,14 +148,19 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
     return BuildResult(design, final, report)
 
 
-def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None) -> dict[str, Any]:
+def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None,
+              self_contact: bool = False) -> dict[str, Any]:
     """Bend the exported actuator (:func:`pnmold.design_fe.run_fe`); its files and the report's ``fem`` section."""
+    import dataclasses
+
     from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, run_fe
+    from pnmold.fem import SelfContact
     from pnmold.report.fem import failed_fe_section, write_fe_section
 
+    options = dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact()) if self_contact else BUILD_OPTIONS
     try:
         run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH,
-                     options=BUILD_OPTIONS, keep_partial=True)
+                     options=options, keep_partial=True)
     except (MeshingError, SolveError) as err:  # nothing converged: no curve to report
         log.warning("quick FE failed: %s", err)
         return failed_fe_section(err)

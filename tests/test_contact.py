@@ -256,6 +256,24 @@ def test_two_blocks_pressed_together_carry_the_weight_at_the_penalty_gap(k, pres
     assert np.ptp(terms.gaps_mm) < 0.3 * closed
 
 
+def test_the_nodal_contact_pressure_is_the_weight_over_the_footprint_where_the_blocks_touch():
+    """The field written to the VTU files: on the touching faces' nodes the pressure that carries
+    B's weight (the penalty's pressure is uniform there to the spread noted above), 0 elsewhere."""
+    pressure = 0.02
+    model = block_model(contact(penalty_mpa_per_mm=10.0))
+    newton = Newton(model, NewtonOptions(rtol=1e-13, mixed=False, krylov_iterations=0, max_iterations=30))
+    res = newton.solve(np.zeros(model.ndof), Load(gravity_n_per_mm3=(0.0, 0.0, -pressure / HEIGHT)))
+    field = model.contact.nodal_pressure(model.X + res.u.reshape(-1, 3))
+    z = model.X[:, 2]
+    touching = np.abs(z - HEIGHT - GAP0 / 2) < GAP0  # the nodes of the two facing faces
+    assert res.converged and field.shape == (len(model.X),)
+    assert field[touching].mean() == pytest.approx(pressure, rel=0.05)
+    assert field[touching].min() > 0.5 * pressure and field[touching].max() < 1.5 * pressure
+    assert np.all(field[~touching] == 0.0)
+    lifted = model.X + np.where((z > HEIGHT + GAP0 / 2)[:, None], [0.0, 0.0, 0.1], 0.0)
+    assert np.all(model.contact.nodal_pressure(lifted) == 0.0)  # apart beyond the activation distance
+
+
 def quadratic_rates(residuals: list[float], floor: float) -> list[float]:
     """The orders ``log(r[i+1]/r[i]) / log(r[i]/r[i-1])`` where all three are above ``floor``."""
     r = [v for v in residuals if v > floor]

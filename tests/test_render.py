@@ -90,6 +90,19 @@ def test_the_strain_picture_colours_the_surface_with_a_colour_bar(tmp_path):
     assert len(np.unique(img, axis=0)) > 200
 
 
+def test_the_strain_picture_marks_the_walls_in_contact_in_red(tmp_path):
+    """With ``contact_kpa`` (self-contact) the pressed nodes are drawn red; without, no red at all
+    (viridis has none)."""
+    nodes, _ = strip_field(tmp_path / "f.npz")
+    with np.load(tmp_path / "f.npz") as f:
+        field = dict(f)
+    np.savez(tmp_path / "c.npz", **field, contact_kpa=np.where(nodes[:, 0] > 30, 12.0, 0.0))
+    out = render.pictures({"s": ("strain", tmp_path / "f.npz"), "c": ("strain", tmp_path / "c.npz")})
+    red = {k: int(((img[:, 0] > 180) & (img[:, 1] < 80) & (img[:, 2] < 80)).sum())
+           for k, img in ((k, rgb(out[k]).reshape(-1, 3).astype(int)) for k in ("s", "c"))}
+    assert red["s"] == 0 and red["c"] > 100, red
+
+
 def test_a_half_model_is_mirrored_with_its_winding_flipped(tmp_path):
     nodes, tris = strip_field(tmp_path / "f.npz")
     stretch = np.arange(len(nodes), dtype=float)

@@ -15,6 +15,9 @@ def add_args(parser) -> None:
     parser.add_argument("--out", metavar="DIR", help="output folder (default out/<design-name>/)")
     parser.add_argument("--no-fem", action="store_true", help="skip the quick FE solve")
     parser.add_argument("--no-slicer", action="store_true", help="skip PrusaSlicer (reported as skipped)")
+    parser.add_argument("--self-contact", action="store_true",
+                        help="the quick FE keeps the chambers' walls from passing through each other "
+                             "(frictionless penalty contact; about twice the FE's time); default: off")
 
 
 def run(args) -> int:
@@ -22,7 +25,8 @@ def run(args) -> int:
 
     design = load(args)
     with stages(args, f"build {design.name}") as say:
-        result = build(design, args.out, fem=not args.no_fem, use_slicer=not args.no_slicer, progress=say)
+        result = build(design, args.out, fem=not args.no_fem, use_slicer=not args.no_slicer, progress=say,
+                       self_contact=args.self_contact)
     if not args.quiet:
         out_console.print(f"wrote {result.out_dir}/ ({len(result.report['parts'])} parts as "
                           f"STEP and STL, design.toml, report.json, report.html)")

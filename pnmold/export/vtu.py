@@ -8,6 +8,8 @@ reference coordinates in mm), with point data
   *Warp By Vector* shows the deformed actuator);
 - ``max_principal_stretch``: the largest principal stretch, from the P2 field evaluated
   at each node in every cell around it and averaged (:func:`.p2.nodal_stretch`);
+- ``contact_pressure_mpa`` (with self-contact only): the pressure where the body's walls press
+  on each other (:meth:`pnmold.fem.contact.ContactSurface.nodal_pressure`), 0 elsewhere;
 
 ``bending.pvd`` lists the steps with the pressure (kPa) as each dataset's ``timestep``
 (ParaView's time). A half model (y >= 0) is written as solved; ParaView's *Reflect* filter
@@ -37,6 +39,7 @@ log = logging.getLogger(__name__)
 #: point-data names in every VTU
 DISPLACEMENT = "displacement_mm"
 STRETCH = "max_principal_stretch"
+CONTACT = "contact_pressure_mpa"
 
 
 def write_vtu_series(mesh: TetMesh, solution: Solution, folder: str | Path, *, name: str = "bending",
@@ -60,12 +63,15 @@ def write_vtu_series(mesh: TetMesh, solution: Solution, folder: str | Path, *, n
         raise ExportError(str(folder), f"the solution keeps {len(states)} displacement states for "
                           f"{len(steps)} steps; the FE must keep one per step (Solution.states)")
     qmesh = qmesh or quadratic_mesh(mesh)
+    contact = solution.contact_pressure_mpa if len(solution.contact_pressure_mpa) == len(steps) else None
     entries = []
     try:
         for i, (step, state) in enumerate(zip(steps, states, strict=True)):
             u = np.asarray(state, float).reshape(-1, 3)
-            data = meshio.Mesh(qmesh.nodes_mm, [("tetra10", qmesh.cells)],
-                               point_data={DISPLACEMENT: u, STRETCH: nodal_stretch(qmesh, state)})
+            fields = {DISPLACEMENT: u, STRETCH: nodal_stretch(qmesh, state)}
+            if contact is not None:
+                fields[CONTACT] = np.asarray(contact[i], float)
+            data = meshio.Mesh(qmesh.nodes_mm, [("tetra10", qmesh.cells)], point_data=fields)
             file = f"step_{i:03d}.vtu"
             with atomic_path(folder / file) as tmp:
                 meshio.write(tmp, data, file_format="vtu", binary=True, compression="zlib")

@@ -277,6 +277,21 @@ class ContactSurface:
         return ContactTerms(gdofs, np.ascontiguousarray(residual), tangent, float(weight @ phi),
                             float((weight * w) @ pressure), g, s, w)
 
+    def nodal_pressure(self, x: np.ndarray) -> np.ndarray:
+        """The contact pressure (MPa) at each node with the nodes at ``x`` (n, 3), for field output:
+        at each paired slave point ``-phi'(g)`` times its facing weight (the pressure either
+        surface feels), averaged onto its facet's 6 nodes with the weights ``A_q |N_qa|`` over all
+        the slave points around the node (0 where nothing touches; nodes off the surface 0)."""
+        terms = self.terms(x, want_k=False)
+        opt = self.options
+        pressure = np.zeros(len(self.area))
+        pressure[terms.slaves] = -penalty(terms.gaps_mm, opt.penalty_mpa_per_mm, opt.activation_mm)[1] * terms.facing
+        weight = self.area.reshape(-1, len(_POINTS))[:, :, None] * np.abs(self.N)[None]  # (K, 3, 6)
+        num, den = np.zeros(len(x)), np.zeros(len(x))
+        np.add.at(num, self.facets, np.einsum("kqa,kq->ka", weight, pressure.reshape(-1, len(_POINTS))))
+        np.add.at(den, self.facets, weight.sum(axis=1))
+        return np.divide(num, den, out=np.zeros(len(x)), where=den > 0)
+
     def ends_meet(self, x: np.ndarray, X: np.ndarray) -> tuple[int, float]:
         """The pairs at the node positions ``x`` whose slave facet and master triangle lie more than
         half the body's length apart along x in the reference positions ``X`` (the free end on

@@ -98,6 +98,8 @@ class Solution:
         (vertices first, then edge nodes), for field output (:mod:`pnmold.export`).
     stop : why the curve ended, one of :data:`STOPS` ("failed" for a partial curve).
     pressure_maximum : the pressure maximum met along the curve, or None.
+    contact_pressure_mpa : with self-contact, the contact pressure (MPa) at every P2 node at every
+        step (:meth:`.contact.ContactSurface.nodal_pressure`); empty without.
     """
 
     steps: tuple[Step, ...]
@@ -109,6 +111,7 @@ class Solution:
     states: tuple[np.ndarray, ...] = ()  # the full P2 displacement vector at every step
     stop: str = "full_bend"
     pressure_maximum: PressureMaximum | None = None
+    contact_pressure_mpa: tuple[np.ndarray, ...] = ()
 
     @property
     def max_pressure_kpa(self) -> float:

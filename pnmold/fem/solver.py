@@ -174,6 +174,7 @@ class _Curve:
         self.steps: list[Step] = []
         self.shapes: list[np.ndarray] = []
         self.states: list[np.ndarray] = []
+        self.contact: list[np.ndarray] = []  # the nodal contact pressure (MPa) of every state, with self-contact
         self.found: dict[str, object] = {}
 
     def report(self, state: State) -> tuple[bool, float]:
@@ -184,13 +185,15 @@ class _Curve:
         self.steps.append(step)
         self.shapes.append(state.u.reshape(-1, 3)[:self.mesh.n_nodes].copy())
         self.states.append(state.u.copy())
+        touch = setup.model.contact
+        if touch is not None:
+            self.contact.append(touch.nodal_pressure(setup.model.X + state.u.reshape(-1, 3)))
         log.info("%.4g kPa: angle %.1f deg, tip (%.2f, %.2f) mm, volume %.4g mL%s",
                  step.pressure_kpa, step.bend_angle_deg, step.tip_x_mm, step.tip_z_mm,
                  step.cavity_volume_ml, f", force {step.force_n:.3g} N" if blocked else "")
         if max_stretch is not None and step.max_principal_stretch > max_stretch:
             self.found["stretch"] = step
             return True, step.bend_angle_deg
-        touch = setup.model.contact
         if touch is not None and touch.options.stop_where_ends_meet and not blocked and state.p > 0:
             pairs, force = touch.ends_meet(setup.model.X + state.u.reshape(-1, 3), setup.model.X)
             if pairs:
@@ -211,7 +214,7 @@ class _Curve:
         shapes = self.shapes
         return Solution(tuple(self.steps), shapes[-1] if shapes else np.zeros((self.mesh.n_nodes, 3)),
                         None, reason, self.setup.stats(self.t_start), tuple(shapes), tuple(self.states),
-                        "failed", self.found.get("maximum"))
+                        "failed", self.found.get("maximum"), tuple(self.contact))
 
 
 @one_blas_thread
@@ -238,7 +241,7 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
              stats["total_s"], reason or "full bend")
     displacement = curve.shapes[-1]
     return Solution(tuple(curve.steps), displacement, fb, reason, stats, tuple(curve.shapes),
-                    tuple(curve.states), stop, curve.found.get("maximum"))
+                    tuple(curve.states), stop, curve.found.get("maximum"), tuple(curve.contact))
 
 
 def _stages(curve: _Curve, stage: str, pmax: float, targets: list[float] | None) -> str:

@@ -61,7 +61,18 @@ def fem_report(run: FeRun) -> dict[str, Any]:
         "solver": {"linear_solver": choose_linear_solver(),
                    **{k: (round(v, 3) if isinstance(v, float) else v) for k, v in sol.stats.items()}},
         "steps": steps,
+        "self_contact": _self_contact_report(sol),
     }
+
+
+def _self_contact_report(sol) -> dict[str, Any] | None:
+    """``fem.self_contact``: None without self-contact; with it the largest contact pressure (kPa)
+    at each step and the first pressure where the walls touch (None if they never do)."""
+    if not sol.contact_pressure_mpa:
+        return None
+    peak = [round(1000.0 * float(np.max(c, initial=0.0)), 4) for c in sol.contact_pressure_mpa]
+    first = next((s.pressure_kpa for s, c in zip(sol.steps, peak, strict=False) if c > 0), None)
+    return {"max_contact_pressure_kpa": peak, "first_contact_kpa": None if first is None else round(first, 4)}
 
 
 def blocked_force_report(run: FeRun, n_points: int = 9) -> dict[str, Any]:
@@ -109,12 +120,14 @@ def stretch_field(mesh: TetMesh, displacement_mm: np.ndarray) -> np.ndarray:
 def write_field(run: FeRun, path: str | Path) -> Path:
     """``fem_field.npz``: the last converged shape and its stretch on the boundary, for the
     report's strain picture (keys ``nodes_mm``, ``displacement_mm``, ``surface_tris``,
-    ``stretch``, ``pressure_kpa``, ``half``)."""
-    mesh, u = run.mesh, run.solution.displacement_mm
+    ``stretch``, ``pressure_kpa``, ``half``; with self-contact ``contact_kpa``, the contact
+    pressure at the mesh's vertices, the first of the P2 nodes)."""
+    mesh, u, sol = run.mesh, run.solution.displacement_mm, run.solution
+    extra = {"contact_kpa": 1000.0 * sol.contact_pressure_mpa[-1][:mesh.n_nodes]} if sol.contact_pressure_mpa else {}
     buf = io.BytesIO()
     np.savez_compressed(buf, nodes_mm=mesh.nodes_mm, displacement_mm=u,
                         surface_tris=boundary_triangles(mesh), stretch=stretch_field(mesh, u),
-                        pressure_kpa=run.solution.max_pressure_kpa, half=mesh.half)
+                        pressure_kpa=sol.max_pressure_kpa, half=mesh.half, **extra)
     return write_bytes(path, buf.getvalue())
 
 
@@ -160,5 +173,7 @@ def write_paraview(run: FeRun, folder: str | Path) -> dict[str, Any]:
         index = write_vtu_series(run.mesh, run.solution, Path(folder) / "fem")
     except ExportError as err:
         return {"pvd": None, "reason": str(err)}
-    return {"pvd": f"fem/{index.name}", "steps": len(run.solution.steps),
-            "point_data": ["displacement_mm", "max_principal_stretch"], "cells": "10-node tetrahedra"}
+    point_data = ["displacement_mm", "max_principal_stretch"] + (["contact_pressure_mpa"] if
+                                                                   run.solution.contact_pressure_mpa else [])
+    return {"pvd": f"fem/{index.name}", "steps": len(run.solution.steps), "point_data": point_data,
+            "cells": "10-node tetrahedra"}

@@ -218,6 +218,12 @@ def _strain(folder: Path, fem: dict[str, Any], pictures: dict[str, bytes | str])
         s = steps[-1]
         caption += (f" Largest {s['max_principal_stretch']:.3f} at {s['pressure_kpa']:.1f} kPa, at "
                     f"({_fmt(s['max_stretch_at_mm'])}) mm in the reference frame.")
+    touch = fem.get("self_contact")
+    if touch:
+        peak = (touch.get("max_contact_pressure_kpa") or [0.0])[-1]
+        caption += (" Self-contact on: red marks where the walls press on each other "
+                    f"(largest {peak:.1f} kPa; first contact at {touch['first_contact_kpa']:.1f} kPa)."
+                    if touch.get("first_contact_kpa") is not None else " Self-contact on: the walls never touched.")
     return _picture(pictures["strain"], "the strain picture", caption)
 
 

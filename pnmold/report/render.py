@@ -96,15 +96,19 @@ def strain_picture(field_path: str | Path) -> bytes:
     """PNG of the deformed surface coloured by the largest principal stretch, with a colour bar.
 
     ``field_path``: ``fem_field.npz`` with ``nodes_mm``, ``displacement_mm``, ``surface_tris``,
-    ``stretch`` (per node) and optionally ``half`` (else: half when no node has y < 0)."""
+    ``stretch`` (per node) and optionally ``half`` (else: half when no node has y < 0) and
+    ``contact_kpa`` (per node, with self-contact: the nodes where the walls press on each other are
+    marked in red, the most pressed one labelled)."""
     import pyvista as pv
 
     with np.load(field_path) as f:
         nodes, disp = f["nodes_mm"].astype(float), f["displacement_mm"].astype(float)
         tris, stretch = f["surface_tris"].astype(np.int64), f["stretch"].astype(float)
         half = bool(f["half"]) if "half" in f.files else nodes[:, 1].min() > -1e-6
+        contact = f["contact_kpa"].astype(float) if "contact_kpa" in f.files else np.zeros(len(nodes))
     if half:
-        nodes, tris, disp, stretch = mirrored(nodes, tris, disp * np.array([1.0, -1.0, 1.0]), stretch)
+        nodes, tris, disp, stretch, contact = mirrored(nodes, tris, disp * np.array([1.0, -1.0, 1.0]), stretch,
+                                                       contact)
     faces = np.hstack([np.full((len(tris), 1), 3), tris]).ravel()
     surface = pv.PolyData(nodes + disp, faces)
     surface.point_data[STRETCH_LABEL] = stretch
@@ -116,6 +120,12 @@ def strain_picture(field_path: str | Path) -> bytes:
     at = int(np.argmax(stretch))
     plotter.add_point_labels([surface.points[at]], [f"max {stretch[at]:.2f}"], point_size=10,
                              point_color="cyan", font_size=14, always_visible=True)
+    touching = np.flatnonzero(contact > 0)
+    if touching.size:
+        plotter.add_points(surface.points[touching], color="red", point_size=7, render_points_as_spheres=True)
+        top = touching[np.argmax(contact[touching])]
+        plotter.add_point_labels([surface.points[top]], ["walls in contact"], point_size=1,
+                                 font_size=13, text_color="red", always_visible=True)
     _look(plotter, (0.35, -1.0, 0.45), (0.0, 0.0, 1.0), zoom=1.1)
     return _png(plotter)
 
