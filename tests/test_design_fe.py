@@ -186,7 +186,9 @@ def test_a_rubber_strain_limiting_layer_is_a_second_material_in_the_fe(exported)
     the 13x stiffer layer (2 mm of it) adds far more bending stiffness than it takes away
     extension, so at the same pressure it bends markedly less (the composite-beam test in
     test_fem.py checks the two-rubber physics exactly). The mesh carries the layer as a
-    region of its own."""
+    region of its own. Runs the two FE on the coarse mesh to 1 kPa only (the rest step and 1 kPa):
+    the soft plain fPN already curls past 140 deg there, the layered about 70 (ratio 0.48 against
+    the 0.7 asserted; to 2 kPa it was 0.50, at twice the FE's cost)."""
     from pnmold.design_fe import regions_of
     from pnmold.materials.library import as_design_overrides, get_material
     from pnmold.tetmesh import BOTTOM_LAYER
@@ -199,7 +201,7 @@ def test_a_rubber_strain_limiting_layer_is_a_second_material_in_the_fe(exported)
     for label, sets in (("layered", [*ecoflex, "layer_material.name=Elastosil M4601"]),
                         ("plain", [*ecoflex, "layer_material.name=Ecoflex 00-30"])):
         design, step = exported("fpn", *sets)
-        run = run_fe(design, step_path=step, size=COARSE, orientation="none", pressures_kpa=[1.0, 2.0])
+        run = run_fe(design, step_path=step, size=COARSE, orientation="none", pressures_kpa=[1.0])
         bends[label] = [s.bend_angle_deg for s in run.solution.steps]
         if label == "layered":
             assert run.mesh.regions[BOTTOM_LAYER].size > 0
