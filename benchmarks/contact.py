@@ -25,6 +25,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.design import load_design  # noqa: E402
 from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe  # noqa: E402
@@ -46,12 +48,27 @@ def solve(design, step: Path, contact: SelfContact | None, label: str, max_kpa: 
           f"solve {stats['total_s']:.1f} s (mesh {run.timings_s['mesh']:.1f} s, wall {wall:.1f} s), "
           f"{stats['increments']} increments, {stats['factorizations']} factorisations, {stats['cuts']} cuts")
     qmesh = quadratic_mesh(run.mesh)
-    print(f"[{label}] {'kPa':>7} {'bend':>6} {'inside':>6} {'deeper':>6} {'max depth':>9}")
+    print(f"[{label}] {'kPa':>7} {'bend':>6} {'mL':>7} {'inside':>6} {'deeper':>6} {'max depth':>9}")
     for step_, state in zip(sol.steps, sol.states, strict=True):
         ov = measure_overlap(qmesh.nodes_mm, qmesh.cells, state)
-        print(f"[{label}] {step_.pressure_kpa:>7.2f} {step_.bend_angle_deg:>6.1f} {ov.nodes.size:>6} "
-              f"{ov.count(OVERLAP_DEPTH_MM):>6} {ov.max_depth_mm:>7.3f} mm")
+        print(f"[{label}] {step_.pressure_kpa:>7.2f} {step_.bend_angle_deg:>6.1f} {step_.cavity_volume_ml:>7.3f} "
+              f"{ov.nodes.size:>6} {ov.count(OVERLAP_DEPTH_MM):>6} {ov.max_depth_mm:>7.3f} mm")
     return run
+
+
+def compare(off, on) -> None:
+    """Bend and cavity volume (P-V) with contact against without at a quarter, half and three
+    quarters of the lower of the two curves' last pressures (linear between converged steps)."""
+    def at(run, p: float, key: str) -> float:
+        steps = run.solution.steps
+        return float(np.interp(p, [s.pressure_kpa for s in steps], [getattr(s, key) for s in steps]))
+
+    top = min(off.solution.steps[-1].pressure_kpa, on.solution.steps[-1].pressure_kpa)
+    for f in (0.25, 0.5, 0.75):
+        p = f * top
+        (b0, v0), (b1, v1) = ((at(r, p, "bend_angle_deg"), at(r, p, "cavity_volume_ml")) for r in (off, on))
+        print(f"[with against without] {p:.1f} kPa: bend {b1:.1f} against {b0:.1f} deg ({b1 - b0:+.1f}), "
+              f"volume {v1:.3f} against {v0:.3f} mL ({100 * (v1 - v0) / v0:+.1f} %)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -70,10 +87,11 @@ def main(argv: list[str] | None = None) -> int:
         subprocess.run([sys.executable, "-m", "pnmold.cli", "build", args.design, "--no-fem", "--no-slicer",
                         "--quiet", "--out", str(Path(tmp) / "b")], check=True)
         step = Path(tmp) / "b" / "actuator.step"
-        if args.only != "on":
-            solve(design, step, None, "without contact", args.max_kpa)
-        if args.only != "off":
-            solve(design, step, contact, f"contact {args.penalty:g} MPa/mm, {args.activation:g} mm", args.max_kpa)
+        off = solve(design, step, None, "without contact", args.max_kpa) if args.only != "on" else None
+        on = (solve(design, step, contact, f"contact {args.penalty:g} MPa/mm, {args.activation:g} mm", args.max_kpa)
+              if args.only != "off" else None)
+        if off is not None and on is not None:
+            compare(off, on)
     return 0
 
 

@@ -94,7 +94,8 @@ CATALOGUE: tuple[Effect, ...] = (
             "theta_c z_mid, delta = 9 V_b / (8 A_wall) with V_b the chamber's volume gain less the wedge its "
             "rotation opens (FE curve); above p_c the free rotation's increments and the compliance are "
             "divided by 1 + value",
-        source="assumed (the FE has no contact); wall bulge as a clamped plate's parabolic cap",
+        source="assumed, not yet read from the FE's opt-in self-contact (build --self-contact), which on the "
+               "fPN bends it further at the same pressure, not less; wall bulge as a clamped plate's parabolic cap",
     ),
     Effect(
         "layer_compliance", "compliance_mm_per_n", "mm/N", 0.0, (0.0, 1.0), ("bending", "pv", "force"),

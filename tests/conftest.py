@@ -101,7 +101,7 @@ FILE_SECONDS = {
     "tests/test_design_fe.py": 1081, "tests/test_rom.py": 637, "tests/test_export.py": 594,
     "tests/test_rom_families.py": 478, "tests/test_rom_spn.py": 387, "tests/test_sweep.py": 258,
     "tests/test_real_segment.py": 180, "tests/test_pneumatics.py": 132, "tests/test_diagnose.py": 120,
-    "tests/test_fem_path.py": 100,
+    "tests/test_fem_path.py": 100, "tests/test_contact_fe.py": 60,
     "tests/test_report_html.py": 98, "tests/test_checks.py": 93, "tests/test_cad.py": 77,
     "tests/test_diagnose_step.py": 77, "tests/test_fem.py": 70, "tests/test_install.py": 52,
     "tests/test_cli.py": 50, "tests/test_recording.py": 48, "tests/test_reading.py": 33,
