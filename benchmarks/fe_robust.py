@@ -11,11 +11,14 @@ elongation at break for the stretch stop).
 
 Per case it prints how the curve ended -- full bend, a named physical stop (pressure
 maximum, pressure limit, stretch past the elongation at break) or failed (a SolveError; a
-traceback counts as failed too) -- with time and factorisations; then the totals. Cases
-are appended to ``--out`` (JSON lines) as they finish and a rerun skips those done.
+traceback counts as failed too) -- with time and factorisations, and how many of its converged
+steps have a boundary node deeper than 0.05 mm inside another part of the body
+(:mod:`pnmold.fem.overlap`); then the totals. ``--self-contact`` bends as ``pnmold build
+--self-contact`` does. Cases are appended to ``--out`` (JSON lines) as they finish and a rerun
+skips those done (use another ``--out`` with and without contact).
 
     .venv/bin/python benchmarks/fe_robust.py [--designs 30] [--seed 1] [--jobs 1]
-        [--out fe_robust.jsonl] [--mesh 3.2,6.4]
+        [--out fe_robust.jsonl] [--mesh 3.2,6.4] [--self-contact]
 """
 
 from __future__ import annotations
@@ -80,12 +83,18 @@ def material_sets(name: str) -> list[str]:
     return as_design_overrides(get_material(name))
 
 
-def run_case(case: dict, builds: str, mesh: tuple[float, float]) -> dict:
-    """Bend one (design, material, orientation) as the build does; the outcome as a dict."""
+def run_case(case: dict, builds: str, mesh: tuple[float, float], contact: bool = False) -> dict:
+    """Bend one (design, material, orientation) as the build does (``contact``: as ``pnmold build
+    --self-contact`` does); the outcome as a dict, with the overlap of its converged steps."""
+    import dataclasses
+
     from pnmold.design import load_design
     from pnmold.design_fe import BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe
     from pnmold.errors import SolveError
+    from pnmold.fem import SelfContact
     from pnmold.mesh import MeshSize
+
+    options = dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact()) if contact else BUILD_OPTIONS
 
     design = load_design("fpn", case["sets"] + material_sets(case["material"]))
     step = Path(builds) / f"design{case['design']}" / "actuator.step"
@@ -93,10 +102,11 @@ def run_case(case: dict, builds: str, mesh: tuple[float, float]) -> dict:
     out = dict(case)
     try:
         run = run_fe(design, step_path=step, size=MeshSize(*mesh), orientation=case["orientation"],
-                     max_pressure_kpa=QUICK_MAX_PRESSURE_KPA, options=BUILD_OPTIONS)
+                     max_pressure_kpa=QUICK_MAX_PRESSURE_KPA, options=options)
         sol = run.solution
         out.update(stop=sol.stop, reason=sol.reason, full_bend_kpa=sol.full_bend_pressure_kpa,
-                   last_kpa=sol.max_pressure_kpa, bend_deg=sol.steps[-1].bend_angle_deg)
+                   last_kpa=sol.max_pressure_kpa, bend_deg=sol.steps[-1].bend_angle_deg,
+                   contact=contact, **_overlap(run))
         stats = sol.stats
     except SolveError as err:
         partial = err.partial
@@ -111,6 +121,18 @@ def run_case(case: dict, builds: str, mesh: tuple[float, float]) -> dict:
                factorizations=stats.get("factorizations"),
                stage_factorizations=stats.get("stage_factorizations"))
     return out
+
+
+def _overlap(run) -> dict:
+    """The converged steps with a boundary node deeper than 0.05 mm inside another part of the body,
+    and the deepest (:mod:`pnmold.fem.overlap`, as the overlap acceptance measures it)."""
+    from pnmold.export.p2 import quadratic_mesh
+    from pnmold.fem.overlap import OVERLAP_DEPTH_MM, measure_overlap
+
+    q = quadratic_mesh(run.mesh)
+    found = [measure_overlap(q.nodes_mm, q.cells, u) for u in run.solution.states]
+    return {"steps": len(found), "overlap_steps": sum(ov.count(OVERLAP_DEPTH_MM) > 0 for ov in found),
+            "overlap_max_mm": round(max((ov.max_depth_mm for ov in found), default=0.0), 3)}
 
 
 def build_design(index: int, sets: list[str], builds: str) -> bool:
@@ -142,7 +164,8 @@ def _print_row(row: dict) -> None:
     fb = f"{row['full_bend_kpa']:.1f} kPa" if row.get("full_bend_kpa") else "-"
     print(f"design {row['design']:>3} {row['kind']:>3} n={row['count']:<3} {row['material']:<16} "
           f"{row['orientation']:<14} {_outcome(row):<17} full bend {fb:>10}  "
-          f"{row['seconds']:6.1f} s  {row.get('factorizations') or '-':>4} fact.", flush=True)
+          f"{row['seconds']:6.1f} s  {row.get('factorizations') or '-':>4} fact.  "
+          f"overlap {row.get('overlap_steps', '-')}/{row.get('steps', '-')} steps", flush=True)
     if row["stop"] in ("failed", "error"):
         print(f"      {row['reason'][:300]}", flush=True)
 
@@ -155,6 +178,11 @@ def summary(rows: list[dict]) -> None:
           f"{sum(counts[s.replace('_', ' ')] for s in PHYSICAL)} named physical stop "
           f"({', '.join(f'{k} {v}' for k, v in counts.items() if k not in ('full bend', 'failed'))}), "
           f"{counts['failed']} failed; {100 * ok / max(n, 1):.1f}% full bend or named stop")
+    measured = [r for r in rows if "overlap_steps" in r]
+    if measured:
+        worst = max(r["overlap_max_mm"] for r in measured)
+        print(f"  overlap: {sum(r['overlap_steps'] > 0 for r in measured)} of {len(measured)} curves have a step "
+              f"with a node deeper than 0.05 mm inside another part (deepest {worst:.3f} mm)")
     for key in ("material", "orientation", "kind"):
         groups = collections.defaultdict(list)
         for r in rows:
@@ -177,6 +205,7 @@ def main() -> None:
     parser.add_argument("--out", default="fe_robust.jsonl")
     parser.add_argument("--builds", default=None, help="folder for the designs' CAD (default: temporary)")
     parser.add_argument("--mesh", default="3.2,6.4", help="wall,max element size (mm); default the build's")
+    parser.add_argument("--self-contact", action="store_true", help="bend as pnmold build --self-contact does")
     args = parser.parse_args()
     mesh = tuple(float(v) for v in args.mesh.split(","))
     if args.jobs > 1:
@@ -211,7 +240,7 @@ def main() -> None:
     with out.open("a") as sink:
         if args.jobs > 1:
             with cf.ProcessPoolExecutor(args.jobs, initializer=_single_thread) as pool:
-                futures = [pool.submit(run_case, c, builds, mesh) for c in cases]
+                futures = [pool.submit(run_case, c, builds, mesh, args.self_contact) for c in cases]
                 for fut in cf.as_completed(futures):
                     row = fut.result()
                     sink.write(json.dumps(row) + "\n")
@@ -220,7 +249,7 @@ def main() -> None:
                     _print_row(row)
         else:
             for case in cases:
-                row = run_case(case, builds, mesh)
+                row = run_case(case, builds, mesh, args.self_contact)
                 sink.write(json.dumps(row) + "\n")
                 sink.flush()
                 rows.append(row)

@@ -73,3 +73,27 @@ def test_build_self_contact_reaches_the_quick_fe(flag, on, tmp_path, monkeypatch
     assert code == 3  # the quick FE "failed" (the stub): the build says so
     assert seen["options"].self_contact == (SelfContact() if on else None)
     assert seen["options"].max_angle_step_deg == pnmold.design_fe.BUILD_OPTIONS.max_angle_step_deg
+
+
+def test_simulate_fe_self_contact_reaches_the_fe_and_is_refused_elsewhere(tmp_path, monkeypatch, capsys):
+    """``pnmold simulate --model fe --self-contact`` solves with :class:`SelfContact`; with the reduced
+    model or the step response the flag is refused, naming it (exit 2), not ignored."""
+    import pnmold.design_fe
+    from pnmold.cli import main
+    from pnmold.errors import MeshingError
+    from pnmold.fem import SelfContact
+
+    seen = {}
+
+    def run_fe(design, **kw):
+        seen["options"] = kw["options"]
+        raise MeshingError("stopped by the test after the options were seen")
+
+    monkeypatch.setattr(pnmold.design_fe, "run_fe", run_fe)
+    main(["simulate", "fpn", "--model", "fe", "--pressures", "0:10:5", "--self-contact", "--quiet"])
+    assert seen["options"].self_contact == SelfContact()
+    capsys.readouterr()
+    for argv in (["--model", "rom"], ["--dynamic", "--supply-kpa", "100"]):
+        assert main(["simulate", "fpn", *argv, "--self-contact", "--json", str(tmp_path / "s.json")]) == 2
+        assert "--self-contact" in capsys.readouterr().err
+        assert not (tmp_path / "s.json").exists()

@@ -34,6 +34,8 @@ def add_args(parser) -> None:
     both.add_argument("--effects", metavar="NAME=VALUE,...",
                       help="physics effects and NAME.PARAM=VALUE (see `pnmold effects`; FE: gravity, "
                       "strain_stiffening, layer_compliance; --dynamic: dead_volume, flow_restriction)")
+    both.add_argument("--self-contact", action="store_true",
+                      help="--model fe: keep the walls from passing through each other (about twice the time)")
     both.add_argument("--vtu", metavar="DIR",
                       help="--model fe: write every converged step as DIR/step_NNN.vtu with DIR/bending.pvd "
                       "(force.pvd for --kind force) for ParaView")
@@ -68,12 +70,17 @@ def add_args(parser) -> None:
 
 def run(args) -> int:
     if args.dynamic:
+        if args.self_contact:
+            from pnmold.errors import UsageError
+
+            raise UsageError("--self-contact: the quasi-static FE's (--model fe), not the step response's")
         return _run_dynamic(args)
     from pnmold.simulate import Noise, SimulationRequest, parse_effects, parse_pressures, simulate
 
     design = load(args)
     request = SimulationRequest(parse_pressures(args.pressures), args.model, args.kind, args.cycles,
-                                args.orientation, parse_effects(args.effects), args.rate_kpa_per_s)
+                                args.orientation, parse_effects(args.effects), args.rate_kpa_per_s,
+                                self_contact=args.self_contact)
     noise = Noise(args.noise_mm, args.noise_ml, args.noise_n, args.seed)
     with stages(args, f"characterise {design.name} (once)") as say:
         doc = simulate(design, request, json_path=json_file(args), recording_path=args.recording, noise=noise,

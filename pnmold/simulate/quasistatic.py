@@ -52,6 +52,7 @@ class SimulationRequest:
     effects: tuple[tuple[str, float], ...] = ()
     rate_kpa_per_s: float | None = None
     mesh_size: tuple[float, float] | None = None  # FE mesh (wall, max) mm; None: the model's default
+    self_contact: bool = False  # the FE's walls kept apart (pnmold.fem.SelfContact); --model fe only
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:
@@ -63,6 +64,9 @@ class SimulationRequest:
         if self.rate_kpa_per_s is not None and not (self.rate_kpa_per_s > 0 and math.isfinite(self.rate_kpa_per_s)):
             raise UsageError(f"--rate-kpa-per-s must be > 0, got {self.rate_kpa_per_s:g}")
         check_orientation(self.orientation)
+        if self.self_contact and self.model != "fe":
+            raise UsageError("--self-contact: the FE's self-contact (--model fe); the reduced model has the "
+                             "self_contact effect (--effects self_contact=...)")
 
 
 @dataclass(frozen=True)
@@ -226,10 +230,12 @@ def simulate_fe(design: Design, request: SimulationRequest, *, vtu_dir: str | Pa
     ``force.pvd`` for blocked force; :mod:`pnmold.export.vtu`), named in the document's
     ``paraview``."""
     from pnmold.design_fe import run_fe
+    from pnmold.fem import SelfContact, SolveOptions
 
     run = run_fe(design, orientation=request.orientation, effects=dict(request.effects),
                  pressures_kpa=request.pressures_kpa, kind="force" if request.kind == "force" else "bending",
-                 size=_mesh_size(request))
+                 size=_mesh_size(request),
+                 options=SolveOptions(self_contact=SelfContact()) if request.self_contact else None)
     sol = run.solution
     paraview = {}
     if vtu_dir is not None:
@@ -243,7 +249,7 @@ def simulate_fe(design: Design, request: SimulationRequest, *, vtu_dir: str | Pa
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "fe",
             "kind": request.kind, "orientation": request.orientation if run.gravity_g else NO_GRAVITY,
             "effects": dict(request.effects), "steps": steps, "full_bend_pressure_kpa": sol.full_bend_pressure_kpa,
-            "reason": sol.reason, **paraview}
+            "reason": sol.reason, "self_contact": request.self_contact, **paraview}
 
 
 def simulate_rom(design: Design, request: SimulationRequest, characterisation=None) -> dict[str, Any]:
