@@ -256,6 +256,22 @@ def test_two_blocks_pressed_together_carry_the_weight_at_the_penalty_gap(k, pres
     assert np.ptp(terms.gaps_mm) < 0.3 * closed
 
 
+def test_the_candidate_search_finds_every_pair_within_each_triangles_own_radius():
+    """Against brute force, with a few triangles 50 times the others' size (a ballooned wall): the
+    same pairs, each within its own triangle's radius, none more."""
+    from pnmold.fem.contact import _near
+
+    rng = np.random.default_rng(3)
+    points, centroids = rng.uniform(0, 40, (800, 3)), rng.uniform(0, 40, (300, 3))
+    radius = rng.uniform(0.5, 1.5, 300)
+    radius[[7, 150]] = 50.0
+    s, t, apart = _near(points, centroids, radius)
+    dist = np.linalg.norm(points[:, None] - centroids[None], axis=2)
+    want = set(zip(*np.nonzero(dist <= radius[None]), strict=True))
+    assert set(zip(s.tolist(), t.tolist(), strict=True)) == want and len(s) == len(want)
+    assert np.allclose(apart, dist[s, t])
+
+
 def test_the_nodal_contact_pressure_is_the_weight_over_the_footprint_where_the_blocks_touch():
     """The field written to the VTU files: on the touching faces' nodes the pressure that carries
     B's weight (the penalty's pressure is uniform there to the spread noted above), 0 elsewhere."""

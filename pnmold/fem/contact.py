@@ -51,6 +51,8 @@ SUBTRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 #: triangle's doubled Jacobian
 _POINTS = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
 _UPPER = np.triu_indices(27)  # the row-by-row upper triangle of a pair's 27 x 27 tangent
+#: :func:`_near` searches the triangles up to this many times the median radius at once
+_RADIUS_SPREAD = 3.0
 
 
 def _p2_shape(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -205,7 +207,7 @@ class ContactSurface:
         """Sorted keys ``point * n_triangles + triangle`` of the pairs within ``same_part_mm``."""
         p = X[self.triangles]
         centroid = p.mean(axis=1)
-        radius = float(np.linalg.norm(p - centroid[:, None], axis=2).max())
+        radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1)
         points = self.points(X)
         s, t, _ = _near(points, centroid, self.options.same_part_mm + radius)
         close = point_triangle_distance(points[s], p[t]) <= self.options.same_part_mm
@@ -221,8 +223,7 @@ class ContactSurface:
         centroid = p.mean(axis=1)
         reach = max(opt.activation_mm, opt.max_penetration_mm)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1) + reach
-        s, t, apart = _near(xs_all, centroid, float(radius.max()))
-        s, t = s[apart <= radius[t]], t[apart <= radius[t]]
+        s, t, _ = _near(xs_all, centroid, radius)
         key = s * len(self.triangles) + t
         pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
         keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
@@ -323,7 +324,22 @@ def outer_faces(boundary: np.ndarray, named: Mapping[str, np.ndarray]) -> np.nda
     return boundary[~np.isin(keys(boundary), keys(held))]
 
 
-def _near(points: np.ndarray, centroids: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(point, centroid) index pairs within ``radius`` of each other, and their distance (KD-trees)."""
-    found = cKDTree(points).sparse_distance_matrix(cKDTree(centroids), radius, output_type="ndarray")
-    return found["i"].astype(np.int64), found["j"].astype(np.int64), found["v"]
+def _near(points: np.ndarray, centroids: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(point, centroid) index pairs within each centroid's ``radius`` of each other, and their distance
+    (KD-trees). The triangles up to :data:`_RADIUS_SPREAD` times the median radius are searched at
+    once at their largest radius; the few larger ones (a ballooned wall's stretched triangles) one
+    by one at their own, so one huge triangle cannot make every point a candidate of every other
+    (on an Ecoflex fPN past its stretch at break the search at one radius took 12 GB)."""
+    tree = cKDTree(points)
+    cap = min(float(radius.max()), _RADIUS_SPREAD * float(np.median(radius)))
+    small = np.flatnonzero(radius <= cap)
+    found = tree.sparse_distance_matrix(cKDTree(centroids[small]), cap, output_type="ndarray")
+    s, t, apart = found["i"].astype(np.int64), small[found["j"]], found["v"]
+    keep = apart <= radius[t]
+    s, t, apart = [s[keep]], [t[keep]], [apart[keep]]
+    for j in np.flatnonzero(radius > cap):
+        near = np.asarray(tree.query_ball_point(centroids[j], radius[j]), dtype=np.int64)
+        s.append(near)
+        t.append(np.full(near.size, j, dtype=np.int64))
+        apart.append(np.linalg.norm(points[near] - centroids[j], axis=1))
+    return np.concatenate(s), np.concatenate(t), np.concatenate(apart)
