@@ -86,15 +86,12 @@ def material_sets(name: str) -> list[str]:
 def run_case(case: dict, builds: str, mesh: tuple[float, float], contact: bool = False) -> dict:
     """Bend one (design, material, orientation) as the build does (``contact``: as ``pnmold build
     --self-contact`` does); the outcome as a dict, with the overlap of its converged steps."""
-    import dataclasses
-
     from pnmold.design import load_design
-    from pnmold.design_fe import BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe
+    from pnmold.design_fe import QUICK_MAX_PRESSURE_KPA, build_options, run_fe
     from pnmold.errors import SolveError
-    from pnmold.fem import SelfContact
     from pnmold.mesh import MeshSize
 
-    options = dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact()) if contact else BUILD_OPTIONS
+    options = build_options(contact)
 
     design = load_design("fpn", case["sets"] + material_sets(case["material"]))
     step = Path(builds) / f"design{case['design']}" / "actuator.step"

@@ -18,7 +18,6 @@ is compared instead (no peer: SfePy's run has no contact).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import resource
 import subprocess
@@ -30,8 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.design import load_design  # noqa: E402
-from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, QUICK_MAX_PRESSURE_KPA, run_fe  # noqa: E402
-from pnmold.fem import SelfContact  # noqa: E402
+from pnmold.design_fe import BUILD_MESH, QUICK_MAX_PRESSURE_KPA, build_options, run_fe  # noqa: E402
 
 
 def _tip_at(run, pressure_kpa):
@@ -51,9 +49,8 @@ def _end_kpa(run) -> float | None:
 
 
 def _one(design, step, size, reference_kpa, label, contact: bool = False):
-    options = dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact()) if contact else BUILD_OPTIONS
     run = run_fe(design, step_path=step, size=size, max_pressure_kpa=QUICK_MAX_PRESSURE_KPA,
-                 orientation="chambers_up", options=options)
+                 orientation="chambers_up", options=build_options(contact))
     sol = run.solution
     s = sol.stats
     its = s.get("newton_iterations", [])

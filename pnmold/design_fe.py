@@ -25,7 +25,7 @@ from pnmold.conventions import gravity_direction
 from pnmold.design import Design
 from pnmold.effects import check_effects, value_of
 from pnmold.errors import DesignError, SolveError
-from pnmold.fem import Membrane, Solution, SolveOptions, Yeoh, solve_bending, solve_blocked_force
+from pnmold.fem import Membrane, SelfContact, Solution, SolveOptions, Yeoh, solve_bending, solve_blocked_force
 from pnmold.tetmesh import BOTTOM_LAYER, MeshSize, TetMesh
 
 log = logging.getLogger(__name__)
@@ -39,6 +39,12 @@ BUILD_MESH = MeshSize(3.2, 6.4)
 #: the build's load stepping: bend increments of up to 70 degrees instead of 40 (a preview)
 BUILD_OPTIONS = SolveOptions(max_angle_step_deg=70.0)
 FE_KINDS = ("bending", "force")
+
+
+def build_options(self_contact: bool = False) -> SolveOptions:
+    """The build's quick solve (:data:`BUILD_OPTIONS`), with the FE's self-contact at its defaults
+    when ``self_contact`` (``pnmold build --self-contact``)."""
+    return dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact()) if self_contact else BUILD_OPTIONS
 
 
 def _yeoh(m) -> Yeoh:

@@ -151,16 +151,12 @@ def build(design: Design, out_dir: str | Path | None = None, *, fem: bool = True
 def _quick_fe(design: Design, folder: Path, size: MeshSize | None = None,
               self_contact: bool = False) -> dict[str, Any]:
     """Bend the exported actuator (:func:`pnmold.design_fe.run_fe`); its files and the report's ``fem`` section."""
-    import dataclasses
-
-    from pnmold.design_fe import BUILD_MESH, BUILD_OPTIONS, run_fe
-    from pnmold.fem import SelfContact
+    from pnmold.design_fe import BUILD_MESH, build_options, run_fe
     from pnmold.report.fem import failed_fe_section, write_fe_section
 
-    options = dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact()) if self_contact else BUILD_OPTIONS
     try:
         run = run_fe(design, step_path=folder / "actuator.step", size=size or BUILD_MESH,
-                     options=options, keep_partial=True)
+                     options=build_options(self_contact), keep_partial=True)
     except (MeshingError, SolveError) as err:  # nothing converged: no curve to report
         log.warning("quick FE failed: %s", err)
         return failed_fe_section(err)

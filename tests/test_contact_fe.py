@@ -3,8 +3,6 @@ measured the way the overlap acceptance measures a build's (:mod:`pnmold.fem.ove
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -16,13 +14,11 @@ PRESSURES_KPA = [8.0, 14.0]  # the walls of the gaps meet from about 10 kPa on t
 
 def _series(tmp_path, contact: bool, mesh_of=None):
     from pnmold.design import load_design
-    from pnmold.design_fe import BUILD_OPTIONS, run_fe
+    from pnmold.design_fe import build_options, run_fe
     from pnmold.export.vtu import read_vtu_series, write_vtu_series
-    from pnmold.fem import SelfContact
 
-    options = dataclasses.replace(BUILD_OPTIONS, self_contact=SelfContact() if contact else None)
     run = run_fe(load_design("fpn"), size=COARSE, orientation="none", pressures_kpa=PRESSURES_KPA,
-                 options=options, mesh_of=mesh_of)
+                 options=build_options(contact), mesh_of=mesh_of)
     folder = tmp_path / ("contact" if contact else "free")
     write_vtu_series(run.mesh, run.solution, folder)
     return run, read_vtu_series(folder)
