@@ -171,6 +171,36 @@ def test_a_point_rounding_the_edge_of_a_surface_meets_no_jump_in_energy():
     assert np.abs(np.diff(energy) - predicted).max() < 0.02 * energy.max()
 
 
+def corner_and_facet(beside_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """A convex 90 degree corner -- a top facet (z = 0, x <= 0, facing +z) and a side facet (x = 0,
+    z <= 0, facing +x) sharing the edge x = z = 0 -- and a small facet ``beside_mm`` from the side
+    facet, 0.3 mm below the top's plane: a neighbouring chamber's wall closing on this one's."""
+    corners = np.array([[-4.0, -2.0, 0.0], [0.0, -2.0, 0.0], [0.0, 2.0, 0.0],
+                        [0.0, -2.0, 0.0], [0.0, -2.0, -4.0], [0.0, 2.0, 0.0],
+                        [beside_mm, 0.0, -0.3], [beside_mm, 0.0, -0.32], [beside_mm, 0.02, -0.3]])
+    edges = ((0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5), (6, 7), (7, 8), (6, 8))
+    X = np.vstack([corners, *[(corners[a] + corners[b]) / 2 for a, b in edges]])
+    return X, np.array([[0, 1, 2, 9, 10, 11], [3, 4, 5, 12, 13, 14], [6, 7, 8, 15, 16, 17]])
+
+
+def test_a_point_beside_a_wall_is_not_pushed_through_the_face_over_its_edge():
+    """The small facet lies 0.36 mm from the top facet's edge, behind its plane, and 0.2 mm from the
+    side facet (beyond the 0.1 mm activation). Its nearest surface is the side: no pair, no force
+    (pairing it with the top facet, as when the window was applied before the nearest was chosen,
+    pushed it up through the top as if 0.36 mm deep). At 0.06 mm the side facet pushes it away
+    along +x, not up along z."""
+    options = SelfContact(same_part_mm=0.02)
+    X, facets = corner_and_facet(0.2)
+    assert ContactSurface(X, facets, options).terms(X, want_k=False).pairs == 0
+    X, facets = corner_and_facet(0.06)
+    terms = ContactSurface(X, facets, options).terms(X, want_k=False)
+    assert terms.pairs > 0 and np.all(terms.gaps_mm > 0)
+    R = np.zeros(X.size)
+    np.add.at(R, (3 * terms.gdofs[:, :, None] + np.arange(3)).ravel(), terms.residual.ravel())
+    force = -R.reshape(-1, 3)[np.unique(facets[2])].sum(axis=0)  # on the small facet
+    assert force[0] > 0 and abs(force[2]) < 0.01 * force[0]
+
+
 @pytest.mark.parametrize("apart", [2.0, 12.0], ids=["neighbours", "the-two-ends"])
 def test_the_ends_meet_where_a_pair_joins_points_half_the_body_apart(apart):
     X, facets = two_facets(apart)

@@ -19,7 +19,10 @@ same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:
 found once) are dropped; of the rest, the triangle nearest the slave is its pair (of triangles as
 near, around the edge or vertex nearest it, the one it faces most squarely) where the slave faces
 it at all (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
-activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex).
+activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex). The nearest facing triangle is
+chosen before that window: a point beside a wall, still beyond the activation distance, must not pair with the
+farther face over the wall's edge, behind whose plane it lies (a hanging fPN's chamber tops
+closing: the neighbour's corner was pushed 0.5 mm through the top face, and the path stalled).
 
 **Penalty.** Per pair ``A_q w(c) phi(g) / 2``: ``A_q`` the slave point's reference area, halved
 (two passes), ``w(c)`` the C2 facing weight of an edge or vertex pair (1 for a face pair;
@@ -234,16 +237,20 @@ class ContactSurface:
         dist = np.linalg.norm(xs_all[s] - closest, axis=1)
         signed = np.where(plane < 0, -dist, dist)
         weight = facing_weight(np.abs(plane) / np.maximum(dist, 1e-300), *opt.facing)[0]
-        ok = (signed > -opt.max_penetration_mm) & (signed < opt.activation_mm) & (weight > 0)
-        s, t, dist, plane, closest, weight = s[ok], t[ok], dist[ok], plane[ok], closest[ok], weight[ok]
-        # per slave the nearest triangle; of those as near (the triangles around the edge or the
-        # vertex nearest it), the one it faces most squarely, so the energy stays continuous
+        near = (dist < reach) & (weight > 0)
+        s, t, dist, plane, closest, weight, signed = (a[near] for a in (s, t, dist, plane, closest, weight, signed))
+        # per slave the nearest triangle it faces of all within reach (before the force window: a
+        # point beside a wall, beyond the activation distance, is not pushed through the top face
+        # whose edge is farther off behind it); of those as near (the triangles around the edge
+        # or the vertex nearest it), the one it faces most squarely, so the energy stays continuous
         nearest = np.full(len(xs_all), np.inf)
         np.minimum.at(nearest, s, dist)
         tied = dist <= nearest[s] * (1 + 1e-9) + 1e-12
-        s, t, dist, plane, closest, weight = s[tied], t[tied], dist[tied], plane[tied], closest[tied], weight[tied]
+        s, t, dist, plane, closest, weight, signed = (a[tied] for a in (s, t, dist, plane, closest, weight, signed))
         order = np.lexsort((-weight, s))
         first = order[np.r_[True, s[order][1:] != s[order][:-1]]] if order.size else order
+        ok = (signed[first] > -opt.max_penetration_mm) & (signed[first] < opt.activation_mm)
+        first = first[ok]
         s, t, dist, plane, closest = s[first], t[first], dist[first], plane[first], closest[first]
         on = points_to_barycentric(p[t], closest) > 1e-9
         # where the face's plane is as near as the nearest point, the face (smooth across a flat
