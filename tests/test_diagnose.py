@@ -236,6 +236,20 @@ def test_a_rest_sag_against_the_declared_orientation_is_an_orientation_question(
     assert "`orientation`" in doc["summary"].split(". ")[1] or "`orientation`" in doc["summary"][:600]
 
 
+@pytest.mark.parametrize(("hung", "rolls"), [("chambers_down", True), ("chambers_up", False)])
+def test_a_horizontal_rest_off_toward_the_chambers_may_be_the_body_rolling(tmp_path, hung, rolls):
+    """Declared horizontal (the weight out of the plane), the tip rests off along z: a declaration question
+    either way; toward +z (the chambers' side) the words add the roll of a body held on its side, which the FE
+    of the whole body carries (a soft random fPN rolls 37 deg there) and the reduced model does not."""
+    def relabel(columns, meta):
+        meta["orientation"] = "horizontal"
+
+    doc = _diagnosed(_rewritten(_simulated(tmp_path, "r", "--orientation", hung), "side", relabel))
+    (check,) = doc["rest_check"]
+    assert check["question"] == "orientation" and check["distance_mm"] > check["tolerance_mm"]
+    assert ("rolls" in check["words"] and "--orientation horizontal" in check["words"]) is rolls
+
+
 def test_a_rest_that_agrees_raises_no_question(tmp_path):
     doc = _diagnosed(_simulated(tmp_path, "r"))
     (check,) = doc["rest_check"]
