@@ -20,9 +20,10 @@ found once) are dropped; of the rest, the triangle nearest the slave is its pair
 near, around the edge or vertex nearest it, the one it faces most squarely) where the slave faces
 it at all (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
 activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex). The nearest facing triangle is
-chosen before that window: a point beside a wall, still beyond the activation distance, must not pair with the
-farther face over the wall's edge, behind whose plane it lies (a hanging fPN's chamber tops
-closing: the neighbour's corner was pushed 0.5 mm through the top face, and the path stalled).
+chosen before that window: a point beside a wall, still beyond the activation distance, must not
+pair with the farther face over the wall's edge, behind whose plane it lies (a hanging fPN's
+chamber tops closing: the neighbour's corner was pushed 0.5 mm through the top face, and the path
+stalled).
 
 **Penalty.** Per pair ``A_q w(c) phi(g) / 2``: ``A_q`` the slave point's reference area, halved
 (two passes), ``w(c)`` the C2 facing weight of an edge or vertex pair (1 for a face pair;
