@@ -57,13 +57,15 @@ CATALOGUE: tuple[Effect, ...] = (
         "self-weight of the actuator (and buoyancy when submerged)",
         "tip offset at 0 kPa, largest at low pressure and at the free end; chambers_up bends further "
         "(toward -z) at low pressure and resists curling past 180 deg, chambers_down the opposite; "
-        "horizontal: none in the plane unless the body rolls about its length under its weight (a soft or tall "
-        "body does: the FE of the whole body shows it; it then sags toward +z); about a tenth when submerged "
+        "horizontal: the body rolls about its length under its weight, chambers toward the ground, and sags "
+        "toward +z by the share the roll brings into the plane (a soft or tall body most); about a tenth when "
+        "submerged "
         "(buoyancy); pv: slightly more "
         "volume at the same pressure when it helps the bend; force: the weight adds to the blocked force",
         rom="distributed weight rho g A(x) at each section's centroid (design layout), net of buoyancy "
-            "(1 - rho_water/rho) submerged; out of plane when horizontal (no roll: the rod has no twist); "
-            "bends the rod through the FE-identified hinge compliance",
+            "(1 - rho_water/rho) submerged; bends the rod through the FE-identified hinge compliance; "
+            "horizontal: each hinge rolls by the twist before it (compliance from the FE's roll probe) and feels "
+            "sin(roll) of the chambers-down moment",
         fe="gravity vector value x g along the orientation (-z chambers_up, +z chambers_down, -y horizontal: the "
            "whole body, which may roll about its length)",
         source=SI + ": 'Gravitational forces were taken into account'; g = 9.80665 m/s^2",

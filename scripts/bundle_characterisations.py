@@ -1,8 +1,8 @@
 """Write the templates' FE characterisations that ship with pnmold (``pnmold/data/characterisations/``).
 
 Each template is characterised afresh on the default mesh and pressure limit (free run, gravity
-probe, variant runs, the on-demand probes: the blocked tip, the chambers-down compliance and both
-orientations' compliance with a compliant layer; one to a
+probe, variant runs, the on-demand probes: the blocked tip, the chambers-down compliance, both
+orientations' compliance with a compliant layer and the roll held on its side; one to a
 few minutes of FE each on 2 cores) in a temporary cache; ``--probes-only`` adds the on-demand probes
 to the bundled file as it is (a minute or two); its numbers are rounded to 6 significant digits and
 the JSON written compact, under the cache's file name (design digest, mesh, pressure limit). Run it
@@ -50,8 +50,8 @@ def main(names: list[str]) -> None:
         with tempfile.TemporaryDirectory() as tmp:
             os.environ["PNMOLD_CACHE"] = tmp
             ch.BUNDLED_DIR = bundled if probes_only else Path(tmp) / "none"  # afresh: not from the files written
-            result = characterised_for(design, ["force"], ["chambers_up", "chambers_down"], layer=True,
-                                          progress=lambda stage: print(f"  {stage}", flush=True))
+            result = characterised_for(design, ["force"], ["chambers_up", "chambers_down", "horizontal"], layer=True,
+                                       progress=lambda stage: print(f"  {stage}", flush=True))
         doc = rounded(result.to_json())
         name_on_disk = ch.cache_path(design, ch.DEFAULT_SIZE, ch.DEFAULT_MAX_PRESSURE_KPA).name
         for old in (ROOT / "pnmold" / "data" / "characterisations").glob(f"{design.name}-*.json"):

@@ -246,3 +246,21 @@ def test_held_out_rows_a_fold_extrapolates_are_judged_against_the_predictions_ow
     block = np.tile(fitter.data.series[0].block, 2)  # tip x and z
     shrink = {b: float(np.sum(spread[block == b] ** 2) / np.sum(plain[block == b] ** 2)) for b in np.unique(block)}
     assert shrink[max(shrink)] < 0.5 < shrink[2]  # the top block's extrapolation; mid-ramp nearly as it was
+
+
+def test_an_effect_named_on_too_few_rows_for_two_folds_has_no_spread_and_valid_json(tmp_path):
+    """Six rows of a bending ramp with a weight other than declared: the effect is named, its spread over the
+    held-out folds cannot be measured (one fold), so it is null in the JSON and said in words, not NaN (which
+    no JSON reader takes: the diagnosis used to stop with an unexpected error)."""
+    import json
+
+    from pnmold.cli import main
+
+    rec, out = tmp_path / "few.csv", tmp_path / "few.json"
+    assert main(["simulate", "fpn", "--model", "rom", "--kind", "bending", "--pressures", "0:20:5", "--effects",
+                 "gravity=0.3", "--recording", str(rec), "--noise-mm", "0.2", "--seed", "2", "--quiet"]) == 0
+    assert main(["diagnose", "fpn", str(rec), "--json", str(out), "--quiet"]) == 0
+    d = json.loads(out.read_text())
+    named = {m["effect"]: m for m in d["missing_physics"]}
+    assert named["gravity"]["uncertainty"] == {"gravity": None}
+    assert "spread not measured" in named["gravity"]["explanation"]

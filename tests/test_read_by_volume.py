@@ -77,7 +77,7 @@ def test_a_piston_ramp_with_a_scattered_pressure_names_its_air_column(tmp_path):
     rom = ReducedModel.for_design(load_design("fpn"))
     p = np.linspace(0.0, 36.0, 19)
     truth = rom.run(Protocol("pv", p, "horizontal", measurement=PISTON),
-                    {"gravity": 0.0, "dead_volume": 120.0}, None, {"modulus_scale": 0.9})
+                    {"dead_volume": 120.0}, None, {"modulus_scale": 0.9})
     measured = p + np.random.default_rng(3).normal(0.0, 0.3, p.size) * (p > 0)
     path = tmp_path / "piston.csv"
     write_recording(path, "pv", {"volume_ml": truth["volume_ml"], "pressure_kpa": measured},

@@ -54,7 +54,8 @@ def test_measurement_metadata_is_checked_naming_the_key(tmp_path):
 
 def _measured(tmp_path, name, kind, meta, columns, effects, calibration, cycles=2, top_kpa=40.0, noise=None):
     """A recording of ``kind`` with ``meta`` whose measured columns the reduced model (fPN) fills,
-    read through the recording's own measurement, with Gaussian noise (seeded)."""
+    read through the recording's own measurement, with Gaussian noise (seeded); held horizontal, as
+    declared (its weight on: the body rolls)."""
     proto = Protocol.from_pressures(kind, np.linspace(0.0, top_kpa, 17), cycles, None, "horizontal")
     placeholder = {"pressure_kpa": proto.pressure_kpa, **{c: np.zeros(len(proto)) for c in columns},
                    "cycle": proto.cycle, "phase": proto.phase}
@@ -85,7 +86,7 @@ def _diagnose(tmp_path, *paths) -> dict:
 def test_a_camera_frame_is_registered_not_blamed_on_physics(tmp_path):
     frame = {"frame_dx_mm": 12.0, "frame_dz_mm": -7.0, "frame_rotation_deg": 4.0}
     path = _measured(tmp_path, "camera", "bending", {"tip_origin": "camera"}, ("tip_x_mm", "tip_z_mm"),
-                     {"gravity": 0.0}, {"modulus_scale": 1.1, **frame}, noise={"tip_x_mm": 0.2, "tip_z_mm": 0.2})
+                     {}, {"modulus_scale": 1.1, **frame}, noise={"tip_x_mm": 0.2, "tip_z_mm": 0.2})
     d = _diagnose(tmp_path, path)
     assert d["missing_physics"] == [] and not d["unexplained"]
     got = d["calibration"]["final"]
@@ -100,7 +101,7 @@ def test_a_piston_rigs_air_column_is_named_dead_volume_with_its_size(tmp_path):
     """A volume-driven P-V test in air: the piston compresses the cavity's own air (modelled) and an
     air column the recording does not state: dead_volume, with its size."""
     path = _measured(tmp_path, "pv", "pv", {"rig": "volume", "medium": "air"}, ("volume_ml",),
-                     {"gravity": 0.0, "dead_volume": 120.0}, {"modulus_scale": 0.9}, noise={"volume_ml": 0.05})
+                     {"dead_volume": 120.0}, {"modulus_scale": 0.9}, noise={"volume_ml": 0.05})
     d = _diagnose(tmp_path, path)
     assert [m["effect"] for m in d["missing_physics"]] == ["dead_volume"]
     assert d["missing_physics"][0]["parameters"]["dead_volume"] == pytest.approx(120.0, rel=0.05)
@@ -145,7 +146,7 @@ def test_a_bend_angle_over_the_labs_length_is_read_as_such(tmp_path):
     """A bending test that records only the bend angle, computed over a longer length than the
     actuator's free length: the model's angle is scaled, nothing is blamed."""
     path = _measured(tmp_path, "angle", "bending", {"bending_length_mm": 130.0}, ("bend_angle_deg",),
-                     {"gravity": 0.0}, {"modulus_scale": 1.2}, noise={"bend_angle_deg": 0.3})
+                     {}, {"modulus_scale": 1.2}, noise={"bend_angle_deg": 0.3})
     rec = read_recording(path)
     assert set(rec.columns) >= {"pressure_kpa", "bend_angle_deg"} and "tip_x_mm" not in rec.columns
     d = _diagnose(tmp_path, path)
@@ -156,7 +157,7 @@ def test_a_bend_angle_over_the_labs_length_is_read_as_such(tmp_path):
 
 @pytest.mark.slow
 def test_a_rubber_far_from_the_designs_is_reported_as_the_material(tmp_path):
-    path = _measured(tmp_path, "hard", "bending", {}, ("tip_x_mm", "tip_z_mm"), {"gravity": 0.0},
+    path = _measured(tmp_path, "hard", "bending", {}, ("tip_x_mm", "tip_z_mm"), {},
                      {"modulus_scale": 8.0}, top_kpa=300.0, noise={"tip_x_mm": 0.3, "tip_z_mm": 0.3})
     d = _diagnose(tmp_path, path)
     check = d["calibration"]["material_check"]

@@ -325,7 +325,7 @@ def _check_rig(entry: dict[str, Any], recordings: Sequence[Recording],
         if bound is None:
             continue
         fits, words = explain.dead_volume_check(entry["parameters"]["dead_volume"],
-                                                entry["uncertainty"]["dead_volume"], bound)
+                                                entry["uncertainty"]["dead_volume"] or 0.0, bound)
         entry["rig_check"] = {"recording": rec.path, "air_bound_ml": round(bound["bound_ml"], 4),
                               "air_bound_as_recorded_ml": round(bound["exact_ml"], 4),
                               "at_pressure_kpa": bound["pressure_kpa"], "consistent": fits, "words": words}

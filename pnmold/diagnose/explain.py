@@ -24,14 +24,15 @@ def _digits(v: float) -> float:
     return float(f"{float(v):.6g}")
 
 
-def effect_values(cand, effect) -> tuple[dict[str, float], dict[str, float]]:
-    """The fitted parameters of ``effect`` in ``cand`` and their fold spread."""
+def effect_values(cand, effect) -> tuple[dict[str, float], dict[str, float | None]]:
+    """The fitted parameters of ``effect`` in ``cand`` and their fold spread (None where the recordings hold
+    too few rows for two held-out folds: no spread to measure)."""
     unc = cand.uncertainty()
     values, spread = {}, {}
     for key, v in cand.fit.values.items():
         if key == effect.name or key.startswith(effect.name + "."):
             values[key] = _digits(v)
-            spread[key] = _digits(unc[key])
+            spread[key] = _digits(unc[key]) if np.isfinite(unc[key]) else None
     return values, spread
 
 
@@ -61,7 +62,8 @@ def explanation(effect, values: dict[str, float], spread: dict[str, float], mism
         opening = f"The model left out {what} ({effect.name})."
     bound = (f", the catalogue's upper bound: the data want at least that much (a stronger {effect.name} than "
              f"the catalogue assumes plausible, or a model that carries it weaker than the actuator does)"
-             if at_bound else f" (+- {spread[key]:.2g})")
+             if at_bound else f" (+- {spread[key]:.2g})" if spread[key] is not None else
+             " (its spread not measured: too few rows for two held-out folds)")
     unit_words = "" if unit_of in ("", "1") else f" {unit_of}"  # a ratio has no unit to say
     return (f"{opening} What shows it: {where}; this is its fingerprint: "
             f"{effect.fingerprint[0].lower() + effect.fingerprint[1:].rstrip('.')}. "

@@ -8,8 +8,8 @@ highest) the model's rest tips trace one curve. A recorded rest tip far from tha
 the model lacks; it is a question of the declaration, named with the metadata key that settles it:
 
 - **orientation**: the tip sags the other way (the actuator hung chambers down, say, not up); held
-  horizontal, a tip off along +z may also be the body rolling under its weight (the reduced model carries
-  no roll; the FE of the whole body does), which the words say;
+  horizontal, a tip off along +z may also be the body rolling under its weight further than the model's
+  roll (from the FE's roll probe; without the probe the model has none), which the words say;
 - **free length / frame origin**: the tip is nearer to (or farther from) the clamp than any rest of the
   actuator (the lab measured from the clamp's edge, or the free length is not the design's);
 - **frame**: at the right distance but turned (the recording's axes are not x along the actuator and z
@@ -156,7 +156,8 @@ def _judge(rec: Recording, recorded: tuple[float, float], path: np.ndarray, n: i
             words += (" Unless the rig is horizontal and the body rolls: held on its side, a soft or tall body turns "
                       "about its length under its own weight, its chambers toward the ground, which brings part of "
                       "the weight into the bending plane along +z (the FE of the whole body carries the roll: `pnmold "
-                      "simulate DESIGN --model fe --orientation horizontal`; the reduced model does not).")
+                      "simulate DESIGN --model fe --orientation horizontal`; the reduced model carries it through "
+                      "its roll probe, where that served).")
         return RestCheck(**base, question="orientation", key="orientation", registered=False, words=words)
     r_rec, r_model = math.hypot(*recorded), math.hypot(*nearest)
     if rec.measurement.tip_origin == "rest":

@@ -58,6 +58,43 @@ def characterised_for(design: Design, kinds: Sequence[str], orientations: Sequen
         result = downward_probe(design, **kw)
     if layer and {"chambers_up", "chambers_down"} & set(orientations):
         result = layer_probe(design, orientations, **kw)
+    if "horizontal" in orientations:
+        result = roll_probe(design, **kw)
+    return result
+
+
+def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+               progress: Callable[[str], None] | None = None) -> Characterisation:
+    """The characterisation with the edges' torsional compliance held on its side
+    (``roll_compliance_rad_per_n_mm``, :mod:`pnmold.physics.roll`): the whole body (no half model: the
+    weight leaves the plane of symmetry) at rest under :data:`~pnmold.physics.roll.ROLL_PROBE_G`
+    horizontal, its sections' rolls read at the rod's nodes and identified with the rod under the rolled
+    weight (the chambers-down compliance: the rolled weight opens the bend; :func:`downward_probe` first).
+    FE, a minute or two; once, cached."""
+    from pnmold.design_fe import run_fe
+    from pnmold.physics.roll import ROLL_PROBE_G, section_rolls
+
+    size = replace(size or DEFAULT_SIZE, half=True)
+    result = downward_probe(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
+    if (result.roll_compliance_rad_per_n_mm is not None or "roll" in result.probes_failed or result.source != "fe"
+            or not result.has_rod):
+        return result
+    (progress or (lambda stage: None))(f"{design.name}: roll probe (FE of the whole body, {ROLL_PROBE_G:g} g "
+                                       "horizontal, at rest)")
+    t0 = time.perf_counter()
+    run = run_fe(design, orientation="horizontal", effects={"gravity": ROLL_PROBE_G},
+                 pressures_kpa=[float(result.pressure_kpa[1])], size=replace(size, half=False), keep_partial=True)
+    steps = run.solution.steps
+    if not steps or steps[0].pressure_kpa != 0.0 or not run.solution.shapes_mm:
+        return _failed(design, result, "roll", run.solution.reason or "no state at rest", size, max_pressure_kpa)
+    node_roll = section_rolls(run.mesh.nodes_mm, run.solution.shapes_mm[0], result.rod_x_mm)
+    roll = roll_compliance(design, result, node_roll, ROLL_PROBE_G)
+    rest = steps[0]
+    doc = {"tip_x_mm": rest.tip_x_mm, "tip_z_mm": rest.tip_z_mm, "bend_angle_deg": rest.bend_angle_deg,
+           "node_roll_deg": np.degrees(node_roll).tolist()}
+    result = replace(result, roll_compliance_rad_per_n_mm=roll, probe_roll_gravity_g=ROLL_PROBE_G, probe_roll=doc,
+                     timings_s={**result.timings_s, "probe_roll": round(time.perf_counter() - t0, 2)})
+    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
 
 
@@ -136,6 +173,20 @@ def layer_probe(design: Design, orientations: Sequence[str], *, size: MeshSize |
                      timings_s={**result.timings_s, "probe_layer": round(time.perf_counter() - t0, 2)})
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
+
+
+def roll_compliance(design: Design, result: Characterisation, node_roll: np.ndarray, g: float) -> np.ndarray:
+    """(K,) the edges' torsional compliance from a roll probe's section rolls ``node_roll`` (K+1, rad) at ``g``
+    (:func:`pnmold.physics.roll.identify_roll`, with the rod at rest under the chambers-down compliance)."""
+    from pnmold.physics.rod import solve_rod
+    from pnmold.physics.roll import identify_roll
+    from pnmold.physics.section import rod_loads
+
+    compliance = result.compliance_down_rad_per_n_mm
+    compliance = (result.compliance_rad_per_n_mm if compliance is None else compliance)[:1]
+    loads = rod_loads(design, result.rod_x_mm)
+    return identify_roll(design, loads, node_roll, lambda share: solve_rod(
+        result.rod_angle_rad[:1], result.rod_length_mm[:1], compliance, loads, (0.0, g), share=share), g)
 
 
 def _failed(design: Design, result: Characterisation, probes: str | list[str], why: str, size: MeshSize,

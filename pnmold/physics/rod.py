@@ -7,15 +7,17 @@ direction is ``(cos psi, -sin psi)`` in x-z); its length is ``l_e``. The hinge a
 ``k`` is the proximal end of edge ``k``; its rotation is ``psi_k - psi_(k-1)``.
 
 Loads: the weight of the body over each edge (``weight_n`` per g, at ``frac`` of the edge
-and ``height`` above it, both turning with the edge) and a vertical force ``F`` at the
+and ``height`` above it, both turning with the edge), each hinge feeling the share ``s_k`` of its
+moment (1, or per row and hinge: a body rolled about its length has only ``sin(roll)`` of its weight
+in each hinge's own bending plane, :mod:`pnmold.physics.roll`), and a vertical force ``F`` at the
 tip from a rigid plane under it (blocked force). Equilibrium per hinge::
 
     eta_k = C_k M_k(psi),   psi = psi_free + cumsum(eta)
 
 with ``C_k`` the hinge compliance (rad per N mm) and ``M_k`` the moment about +y of the
 loads distal to node k. Newton's method on all rows at once; the Jacobian is exact:
-dM_k/deta_j = -D_max(j,k), D_k = sum_(e >= k) (q_e - r_k) . f_e (a rotation at node j
-turns every load distal to it about r_j).
+dM_k/deta_j = -s_k D_max(j,k), D_k = sum_(e >= k) (q_e - r_k) . f_e (a rotation at node j
+turns every load distal to it about r_j), with the tip force's part unshared (see :func:`moments`).
 """
 
 from __future__ import annotations
@@ -53,13 +55,15 @@ class RodLoads:
 
 @dataclass(frozen=True, eq=False)
 class RodState:
-    """Solved rows: edge angles (R, K), nodes (R, K+1, 2) in (x, z), moments (R, K), tip force (R,)."""
+    """Solved rows: edge angles (R, K), nodes (R, K+1, 2) in (x, z), moments (R, K), tip force (R,); held on
+    its side, the nodes' roll about the length (R, K+1; :mod:`pnmold.physics.roll`), else None."""
 
     angle_rad: np.ndarray
     nodes_mm: np.ndarray
     moment_n_mm: np.ndarray
     force_n: np.ndarray
     iterations: int
+    roll_rad: np.ndarray | None = None
 
 
 def node_positions(angle: np.ndarray, length: np.ndarray) -> np.ndarray:
@@ -82,16 +86,27 @@ def _node_positions(angle, length):  # pragma: no cover (compiled)
     return out
 
 
+def hinge_shares(share: np.ndarray | float | None, shape: tuple[int, int]) -> np.ndarray:
+    """The share of the weight's moment each hinge feels, (R, K) (None: all of it)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(1.0 if share is None else share, float), shape))
+
+
 def moments(nodes: np.ndarray, angle: np.ndarray, loads: RodLoads, gravity_xz: tuple[float, float],
-            force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Moment about +y at the proximal node of each edge (N mm) and D (see module docstring)."""
+            force: np.ndarray, share: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Moment about +y at the proximal node of each edge (N mm) and D (see module docstring);
+    ``share`` (R, K): the share of the weight's moment each hinge feels (default all). D is the loads'
+    whole (each hinge's share left out): a rotation at node j changes hinge k's moment by its share of
+    D_max(j,k), so Newton's matrix is (I + diag(C s) A) (exact without a tip force; with one and shares
+    below 1, the blocked tip held horizontal, the tip force's part is scaled too: Newton then converges
+    linearly)."""
     f64 = np.ascontiguousarray
     return _moments(f64(nodes, float), f64(angle, float), f64(loads.weight_n, float), f64(loads.frac, float),
-                    f64(loads.height_mm, float), float(gravity_xz[0]), float(gravity_xz[1]), f64(force, float))
+                    f64(loads.height_mm, float), float(gravity_xz[0]), float(gravity_xz[1]),
+                    hinge_shares(share, angle.shape), f64(force, float))
 
 
 @nb.njit(cache=True)
-def _moments(nodes, angle, weight, frac, height, gx, gz, force):  # pragma: no cover (compiled)
+def _moments(nodes, angle, weight, frac, height, gx, gz, share, force):  # pragma: no cover (compiled)
     """Compiled :func:`moments`: the loads distal to each node summed from the tip inward."""
     rows, k_edges = angle.shape
     m = np.empty((rows, k_edges))
@@ -108,38 +123,44 @@ def _moments(nodes, angle, weight, frac, height, gx, gz, force):  # pragma: no c
             sfz += fz
             sqf += qz * fx - qx * fz
             sqd += qx * fx + qz * fz
-            m[r, k] = sqf - (r0z * sfx - r0x * sfz) - (tip_x - r0x) * force[r]
+            m[r, k] = share[r, k] * (sqf - (r0z * sfx - r0x * sfz)) - (tip_x - r0x) * force[r]
             d[r, k] = sqd - (r0x * sfx + r0z * sfz) + (tip_z - r0z) * force[r]
     return m, d
 
 
 def solve_rod(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarray, loads: RodLoads,
-              gravity_xz: tuple[float, float], plane_z_mm: float | None = None) -> RodState:
+              gravity_xz: tuple[float, float], plane_z_mm: float | None = None, start: np.ndarray | None = None,
+              share: np.ndarray | None = None) -> RodState:
     """Equilibrium of every row; with ``plane_z_mm``, the tip may not go below that plane.
+    ``gravity_xz``: ``(gx, gz)`` in g; ``start``: the hinges' rotations (R, K) to start Newton from
+    (default: the free shape); ``share``: the share of the weight's moment each hinge feels (R, K).
 
     Rows that repeat (a cycled ramp returns to the same pressures) are solved once, in the order
     they first appear (a failing row continues from the one before it, as a ramp does)."""
-    loaded = bool(np.any(gravity_xz)) and bool(np.any(loads.weight_n))
+    g, gxz = hinge_shares(share, angle_free.shape), gravity_xz
+    eta0 = np.zeros(angle_free.shape) if start is None else np.asarray(start, float)
+    loaded = bool(np.any(gxz)) and bool(np.any(loads.weight_n)) and bool(np.any(g))
     if not loaded and plane_z_mm is None:  # nothing to solve: the free shape
-        return _solve_rows(angle_free, length, compliance, loads, gravity_xz, plane_z_mm)
-    _, first, back = np.unique(np.concatenate([angle_free, length, compliance], axis=1), axis=0,
-                               return_index=True, return_inverse=True)
+        return _solve_rows(angle_free, length, compliance, loads, gxz, g, plane_z_mm, eta0)
+    _, first, back = np.unique(np.concatenate([angle_free, length, compliance, g], axis=1),
+                               axis=0, return_index=True, return_inverse=True)
     order = np.sort(first)
     at = np.searchsorted(order, first[back.reshape(-1)])  # each row's place among the distinct ones
     try:
-        one = _solve_rows(angle_free[order], length[order], compliance[order], loads, gravity_xz, plane_z_mm)
+        one = _solve_rows(angle_free[order], length[order], compliance[order], loads, gxz, g[order], plane_z_mm,
+                          eta0[order])
     except RodError as err:
         raise RodError(np.flatnonzero(np.isin(at, err.rows))) from None
     return RodState(one.angle_rad[at], one.nodes_mm[at], one.moment_n_mm[at], one.force_n[at], one.iterations)
 
 
 def _solve_rows(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarray, loads: RodLoads,
-                gravity_xz: tuple[float, float], plane_z_mm: float | None) -> RodState:
-    """:func:`solve_rod` on these rows as they are."""
+                gxz: tuple[float, float], g: np.ndarray, plane_z_mm: float | None, eta0: np.ndarray) -> RodState:
+    """:func:`solve_rod` on these rows as they are (``g``: the hinges' shares of the weight)."""
     rows, k = angle_free.shape
-    eta = np.zeros((rows, k))
+    eta = eta0.copy()
     force = np.zeros(rows)
-    loaded = bool(np.any(gravity_xz)) and bool(np.any(loads.weight_n))
+    loaded = bool(np.any(gxz)) and bool(np.any(loads.weight_n)) and bool(np.any(g))
     contact = np.zeros(rows, bool)
     if plane_z_mm is not None:
         free = node_positions(angle_free, length)[:, -1, 1]
@@ -151,12 +172,12 @@ def _solve_rows(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarr
     # blocked rows start straight: the blocked shape is near the rest state, far from the free curl
     eta[contact] = -np.diff(angle_free[contact], axis=1, prepend=0.0)
     for _ in range(3):  # active set of the contact rows
-        eta, force, its, ok = _equilibrium(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact,
+        eta, force, its, ok = _equilibrium(angle_free, length, compliance, loads, gxz, g, plane_z_mm, contact,
                                            eta, force)
         if not ok.all():
             raise RodError(np.flatnonzero(~ok))
         if plane_z_mm is None:
-            _follow_branch(angle_free, length, compliance, loads, gravity_xz, contact, eta, force)
+            _follow_branch(angle_free, length, compliance, loads, gxz, g, contact, eta, force)
         release = contact & (force < 0)
         if plane_z_mm is not None:
             tip_z = node_positions(angle_free + np.cumsum(eta, axis=1), length)[:, -1, 1]
@@ -169,36 +190,35 @@ def _solve_rows(angle_free: np.ndarray, length: np.ndarray, compliance: np.ndarr
         force[~contact] = 0.0
     angle = angle_free + np.cumsum(eta, axis=1)
     nodes = node_positions(angle, length)
-    m, _ = moments(nodes, angle, loads, gravity_xz if loaded else (0.0, 0.0), force)
+    m, _ = moments(nodes, angle, loads, gxz if loaded else (0.0, 0.0), force, g)
     return RodState(angle, nodes, m, force, its)
 
 
-def _equilibrium(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact, eta0, force0):
+def _equilibrium(angle_free, length, compliance, loads, gxz, g, plane_z_mm, contact, eta0, force0):
     """Newton on every row; rows that fail are retried with the weight ramped in four stages, then
     from the previous row's equilibrium (the branch a pressure ramp follows past a limit point)."""
     args = (angle_free, length, compliance)
-    eta, force, its, ok = _newton(*args, loads, gravity_xz, plane_z_mm, contact, eta0, force0)
+    eta, force, its, ok = _newton(*args, loads, gxz, g, plane_z_mm, contact, eta0, force0)
     if ok.all():
         return eta, force, its, ok
     bad = ~ok
     sub = tuple(a[bad] for a in (angle_free, length, compliance))
     e, f = eta0[bad], force0[bad]
     for frac in (0.25, 0.5, 0.75, 1.0):
-        g = (gravity_xz[0] * frac, gravity_xz[1] * frac)
-        e, f, _, good = _newton(*sub, loads, g, plane_z_mm, contact[bad], e, f)
+        e, f, _, good = _newton(*sub, loads, gxz, g[bad] * frac, plane_z_mm, contact[bad], e, f)
     eta[bad], force[bad], ok[bad] = e, f, good
     for i in np.flatnonzero(~ok):
         if i == 0 or not ok[i - 1]:
             continue
         one = slice(i, i + 1)
-        e, f, _, good = _newton(*(a[one] for a in args), loads, gravity_xz, plane_z_mm, contact[one],
+        e, f, _, good = _newton(*(a[one] for a in args), loads, gxz, g[one], plane_z_mm, contact[one],
                                 eta[i - 1:i].copy(), force[i - 1:i].copy())
         if good[0]:
             eta[i], force[i], ok[i] = e[0], f[0], True
     return eta, force, its, ok
 
 
-def _follow_branch(angle_free, length, compliance, loads, gravity_xz, contact, eta, force) -> None:
+def _follow_branch(angle_free, length, compliance, loads, gxz, g, contact, eta, force) -> None:
     """In place: the rows in the order of their free tip angle (a pressure ramp's), each solved from rest
     alone may have landed on another branch than the one the ramp follows (under an opposing weight a
     curled rod has a second equilibrium, turned over). A row that left the branch of the row before it
@@ -212,7 +232,7 @@ def _follow_branch(angle_free, length, compliance, loads, gravity_xz, contact, e
         jump = (eta[row].sum() - eta[last].sum())
         if abs(jump) > _BRANCH_JUMP_RAD:
             one = slice(row, row + 1)
-            e, f, _, good = _newton(angle_free[one], length[one], compliance[one], loads, gravity_xz, None,
+            e, f, _, good = _newton(angle_free[one], length[one], compliance[one], loads, gxz, g[one], None,
                                     contact[one], eta[last:last + 1].copy(), force[last:last + 1].copy())
             if good[0]:
                 eta[row], force[row] = e[0], f[0]
@@ -264,7 +284,7 @@ def _norm(res, nodes, contact, plane_z_mm):
     return np.sqrt(total)
 
 
-def _newton(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, contact, eta, force):
+def _newton(angle_free, length, compliance, loads, gxz, g, plane_z_mm, contact, eta, force):
     """Newton with backtracking on every row; a row leaves the iteration once converged (so rows
     near a limit point do not drag the converged ones through every iteration)."""
     eta, force = eta.copy(), force.copy()
@@ -275,7 +295,7 @@ def _newton(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, conta
     while live.size and it < _MAX_ITERATIONS:
         it += 1
         sub = (angle_free[live], length[live], compliance[live], contact[live])
-        e, f, done, worse = _newton_step(*sub, loads, gravity_xz, plane_z_mm, eta[live], force[live])
+        e, f, done, worse = _newton_step(*sub, loads, gxz, g[live], plane_z_mm, eta[live], force[live])
         eta[live], force[live], ok[live] = e, f, done
         gave_up = worse & stalled[live]  # every halving failed twice running: past a limit point
         stalled[live] = worse
@@ -283,27 +303,27 @@ def _newton(angle_free, length, compliance, loads, gravity_xz, plane_z_mm, conta
     return eta, force, it, ok
 
 
-def _newton_step(angle_free, length, compliance, contact, loads, gravity_xz, plane_z_mm, eta, force):
+def _newton_step(angle_free, length, compliance, contact, loads, gxz, g, plane_z_mm, eta, force):
     """One Newton iteration of these rows: (eta, force, converged, residual still grown after every
     halving); converged rows get the full step."""
 
     def evaluate(eta, force):
         angle = angle_free + np.cumsum(eta, axis=1)
         nodes = node_positions(angle, length)
-        m, d = moments(nodes, angle, loads, gravity_xz, force)
+        m, d = moments(nodes, angle, loads, gxz, force, g)
         return nodes, d, eta - compliance * m
 
     nodes, d, res = evaluate(eta, force)
     if contact.any():
         x_rel = nodes[:, -1:, 0] - nodes[:, :-1, 0]  # (R, K): tip x minus node x
-        y = structured_solve(compliance, d, np.stack([-res, compliance * x_rel], axis=-1))
+        y = structured_solve(compliance * g, d, np.stack([-res, compliance * x_rel], axis=-1))
         gap = nodes[:, -1, 1] - plane_z_mm
         a_y1 = -np.sum(x_rel * y[..., 0], axis=1)
         a_y2 = -np.sum(x_rel * y[..., 1], axis=1)
         d_force = np.where(contact, (a_y1 + gap) / np.where(contact, a_y2, 1.0), 0.0)
         d_eta = y[..., 0] - d_force[:, None] * y[..., 1]
     else:
-        d_eta = structured_solve(compliance, d, -res[..., None])[..., 0]
+        d_eta = structured_solve(compliance * g, d, -res[..., None])[..., 0]
         d_force = np.zeros(eta.shape[0])
     big = np.abs(d_eta).max(axis=1, keepdims=True)
     done = big[:, 0] < _TOL_RAD  # False for NaN: a row that blew up never counts as converged

@@ -28,7 +28,8 @@ Per protocol row, in this order (every step vectorised over the rows):
    stretch from the FE at the volume's ``p_eff``.
 
 How each effect enters: :mod:`.rom_effects` (the catalogue: docs/effects.md). Assumed: the bend
-lives in the x-z plane (gravity out of plane does nothing; docs/frame-and-units.md), the hinge
+lives in the x-z plane (held horizontal, only the share of the weight the body's roll brings into each
+hinge's plane bends it: :mod:`.roll`; docs/frame-and-units.md), the hinge
 compliance is linear in the moment (checked against 1 g by ``tests/test_rom.py``), the
 pressure-side effects act on the whole actuator alike.
 """
@@ -50,6 +51,7 @@ from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.protocol import Protocol
 from pnmold.physics.reading import FRAME, at_volumes, read_bend, read_tip, read_volume
 from pnmold.physics.rod import RodLoads, RodState, solve_rod
+from pnmold.physics.roll import roll_axis_mm, rolled, world
 from pnmold.physics.rom_effects import (
     contact_onset,
     gravity_xz,
@@ -202,7 +204,7 @@ class ReducedModel:
                                                        partial)
         law = self._law_pressures(protocol, v, cal["modulus_scale"], partial)
         angle, length, comp, dhinge = self._hinges(law, protocol.kind, v, protocol.orientation)
-        state = self._equilibrium(protocol, angle, length, comp, v, partial, cal["density_scale"])
+        state = self._equilibrium(protocol, angle, length, comp, v, partial, cal["density_scale"], law.stiff)
         return self._observables(protocol, law, state, dhinge, cal, v)
 
     def _law_pressures(self, protocol: Protocol, v: Callable[[str], float], scale: float, partial: bool
@@ -260,12 +262,30 @@ class ReducedModel:
         return angle, length, comp, dhinge
 
     def _equilibrium(self, protocol: Protocol, angle: np.ndarray, length: np.ndarray, comp: np.ndarray,
-                     v: Callable[[str], float], partial: bool, density_scale: float = 1.0) -> RodState:
+                     v: Callable[[str], float], partial: bool, density_scale: float, stiff: np.ndarray) -> RodState:
         """Step 4 of the module docstring: the rod's equilibria under the weight (and, for ``force``, the
-        plane); a row without one raises :class:`SolveError` unless ``partial``."""
+        plane); held on its side, with the body's roll (:mod:`.roll`; its compliance divided by the row's
+        stiffness factor ``stiff``) where the characterisation has the roll probe. A row without one raises
+        :class:`SolveError` unless ``partial``."""
         gxz = gravity_xz(self.design, protocol.orientation, v("gravity"), density_scale)
+        plane = 0.0 if protocol.kind == "force" else None
+        roll = self.characterisation.roll_compliance_rad_per_n_mm
         try:
-            return self._equilibria(angle, length, comp, gxz, 0.0 if protocol.kind == "force" else None, partial)
+            if protocol.orientation != "horizontal" or roll is None or v("gravity") == 0:
+                return self._equilibria(angle, length, comp, gxz, plane, partial)
+            g = v("gravity") * density_scale
+
+            def solve(share: np.ndarray, last: RodState | None) -> RodState:
+                """The rod under the rolled weight, from the last state, else from the free shape."""
+                if last is not None:
+                    start = np.nan_to_num(np.diff(last.angle_rad - angle, axis=1, prepend=0.0))
+                    try:
+                        return self._equilibria(angle, length, comp, (0.0, g), plane, partial, start, share)
+                    except RodError:
+                        pass
+                return self._equilibria(angle, length, comp, (0.0, g), plane, partial, None, share)
+
+            return rolled(solve, roll[None, :] / stiff[:, None], self.loads, g, roll_axis_mm(self.design), partial)
         except RodError as err:
             at = ", ".join(f"{q:.4g}" for q in np.append(protocol.pressure_kpa, 0.0)[err.rows][:5])
             why = (": past a limit point the blocked tip slides back on the frictionless plane"
@@ -278,8 +298,11 @@ class ReducedModel:
         """Step 5 of the module docstring: the protocol's rows' observables, read as its recording
         measures them (the reference row dropped)."""
         t, p = self.tables, protocol.pressure_kpa
-        tip = state.nodes_mm[:, -1]
-        bend = np.degrees(state.angle_rad[:, -1]) + interp(t.p, t.offset_deg, law.p_bend)
+        end = state.angle_rad[:, -1] + np.radians(interp(t.p, t.offset_deg, law.p_bend))
+        nodes = state.nodes_mm
+        if state.roll_rad is not None:  # held on its side and rolled: as the camera sees it (:func:`.roll.world`)
+            nodes, end = world(nodes, end, state.roll_rad)
+        tip, bend = nodes[:, -1], np.degrees(end)
         volume = interp(t.p, t.volume_ml, law.p_vol) + np.sum(state.moment_n_mm * dhinge, axis=1) / (
             law.stiff * law.ratio)
         m = protocol.measurement
@@ -326,14 +349,18 @@ class ReducedModel:
         return top * (1.0 + LADDER_EXTRAPOLATION) if c.source == "ladder" and c.how_ended == "instability" else top
 
     def _equilibria(self, angle: np.ndarray, length: np.ndarray, comp: np.ndarray, gxz: tuple[float, float],
-                    plane: float | None, partial: bool) -> RodState:
-        """The rod's equilibrium of every row; with ``partial`` the rows that have none are solved
-        without and come back as NaN (the last row, the unloaded reference, must have one)."""
+                    plane: float | None, partial: bool, start: np.ndarray | None = None,
+                    share: np.ndarray | None = None) -> RodState:
+        """The rod's equilibrium of every row (``start``: the hinges' rotations to start from; ``share``: the
+        share of the weight's moment each hinge feels, :func:`.rod.solve_rod`); with ``partial`` the rows that
+        have none are solved without and come back as NaN (the last row, the unloaded reference, must have
+        one)."""
         rows = angle.shape[0]
         ok = np.ones(rows, bool)
         while True:
             try:
-                state = solve_rod(angle[ok], length[ok], comp[ok], self.loads, gxz, plane)
+                state = solve_rod(angle[ok], length[ok], comp[ok], self.loads, gxz, plane,
+                                  None if start is None else start[ok], None if share is None else share[ok])
                 break
             except RodError as err:
                 failed = np.flatnonzero(ok)[err.rows]
@@ -353,8 +380,9 @@ class ReducedModel:
 
 
 def opens_the_bend(orientation: str) -> bool:
-    """The orientation's weight turns the actuator against its bend (toward +z: chambers down)."""
-    return orientation == "chambers_down"
+    """The orientation's weight turns the actuator against its bend (toward +z): chambers down, and held on
+    its side, where the rolled body's weight in its bending plane points toward the chambers (:mod:`.roll`)."""
+    return orientation in ("chambers_down", "horizontal")
 
 
 def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
