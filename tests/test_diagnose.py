@@ -238,9 +238,10 @@ def test_a_rest_sag_against_the_declared_orientation_is_an_orientation_question(
 
 @pytest.mark.parametrize(("hung", "rolls"), [("chambers_down", True), ("chambers_up", False)])
 def test_a_horizontal_rest_off_toward_the_chambers_may_be_the_body_rolling(tmp_path, hung, rolls):
-    """Declared horizontal (the weight out of the plane), the tip rests off along z: a declaration question
-    either way; toward +z (the chambers' side) the words add the roll of a body held on its side, which the FE
-    of the whole body carries (a soft random fPN rolls 37 deg there) and the reduced model does not."""
+    """Declared horizontal, the tip rests off along z beyond every rest the body held on its side allows (its
+    roll sags it a little toward +z): a declaration question either way; toward +z (the chambers' side) the
+    words add that the body may roll further than the model's roll probe says, which the FE of the whole body
+    would show."""
     def relabel(columns, meta):
         meta["orientation"] = "horizontal"
 

@@ -142,6 +142,19 @@ def _judge(rec: Recording, recorded: tuple[float, float], path: np.ndarray, n: i
           f"{recorded[1]:.1f}) mm, {d:.1f} mm from every rest the declared rig allows (nearest "
           f"({nearest[0]:.1f}, {nearest[1]:.1f}) mm; tolerance {tol:.1f} mm)")
     sag = float(path[-1, 1] - path[0, 1])  # toward where the weight pulls the tip
+    roll_words = (" Unless the rig is horizontal and the body rolls further: held on its side, a soft or tall body "
+                  "turns about its length under its own weight, its chambers toward the ground, which brings part of "
+                  "the weight into the bending plane along +z (the FE of the whole body carries the roll: `pnmold "
+                  "simulate DESIGN --model fe --orientation horizontal`; the reduced model carries it through its "
+                  "roll probe, where that served).")
+    top = float(np.max(path[:, 1]))
+    side = rec.measurement.tip_origin == "clamp" and rec.orientation == "horizontal"
+    if side and sag > tol and recorded[1] > top + tol:
+        words = (f"{at}: the tip rests further toward +z than the body held on its side rolls and sags under any "
+                 f"weight the declaration allows (at most {top:.1f} mm). A question of the declaration, not physics: "
+                 f"the metadata key `orientation` settles it (chambers_down: the weight along +z; horizontal: out "
+                 f"of the plane).{roll_words}")
+        return RestCheck(**base, question="orientation", key="orientation", registered=False, words=words)
     if rec.measurement.tip_origin == "clamp" and abs(sag) > tol and (recorded[1] - path[0, 1]) * sag < -tol * abs(sag):
         words = (f"{at}: the tip sags {'up' if sag < 0 else 'down'}, against the weight of the declared "
                  f"{rec.orientation}. A question of the declaration, not physics: the metadata key `orientation` "
@@ -153,11 +166,7 @@ def _judge(rec: Recording, recorded: tuple[float, float], path: np.ndarray, n: i
                  f"physics: the metadata key `orientation` settles it (chambers_up: the weight along -z; "
                  f"chambers_down: along +z; horizontal: out of the plane).")
         if rec.orientation == "horizontal" and recorded[1] > path[0, 1]:
-            words += (" Unless the rig is horizontal and the body rolls: held on its side, a soft or tall body turns "
-                      "about its length under its own weight, its chambers toward the ground, which brings part of "
-                      "the weight into the bending plane along +z (the FE of the whole body carries the roll: `pnmold "
-                      "simulate DESIGN --model fe --orientation horizontal`; the reduced model carries it through "
-                      "its roll probe, where that served).")
+            words += roll_words
         return RestCheck(**base, question="orientation", key="orientation", registered=False, words=words)
     r_rec, r_model = math.hypot(*recorded), math.hypot(*nearest)
     if rec.measurement.tip_origin == "rest":

@@ -70,6 +70,10 @@ from pnmold.physics.section import rod_loads
 #: density as a multiple of the design's (assumed limits: a rubber full of air or of filler), and a camera
 #: frame's offset and rotation (:mod:`.reading`)
 CALIBRATION = {"modulus_scale": (1.0, (0.02, 50.0)), "density_scale": (1.0, (0.5, 2.0)), **FRAME}
+#: a roll probe whose sections roll less than this (deg, at 1 g) leaves the weight out of the plane held on its side
+#: (assumed: sin(1 deg) of the weight; a body symmetric about its mid-plane rolls nothing, and its rod solved under
+#: so small a share, rather than not at all, lost rows the diagnosis of the real segment's two-sided design needed)
+MIN_ROLL_DEG = 1.0
 #: a row is past the FE's last solved step when its effective pressure passes it by more than this share (rounding)
 PAST_END_SHARE = 1e-9
 #: the pressure grid a recording read by its volume is solved on: up to this multiple of its top recorded
@@ -249,7 +253,7 @@ class ReducedModel:
         t = self.tables
         angle = interp(t.p, t.angle, law.p_bend)
         length = interp(t.p, t.length, law.p_bend) * np.where(self.free_edge, law.stretch[:, None], 1.0)
-        down = opens_the_bend(orientation) and t.compliance_down is not None
+        down = opens_the_bend(orientation, kind) and t.compliance_down is not None
         compliance, soft = layer_compliance(self.design, t, down, v("layer_compliance"), law.soft)
         comp = interp(t.p, compliance, law.p_bend, extrapolate=False) * (soft / (law.stiff * law.ratio))[:, None]
         if kind == "force":
@@ -264,14 +268,19 @@ class ReducedModel:
     def _equilibrium(self, protocol: Protocol, angle: np.ndarray, length: np.ndarray, comp: np.ndarray,
                      v: Callable[[str], float], partial: bool, density_scale: float, stiff: np.ndarray) -> RodState:
         """Step 4 of the module docstring: the rod's equilibria under the weight (and, for ``force``, the
-        plane); held on its side, with the body's roll (:mod:`.roll`; its compliance divided by the row's
-        stiffness factor ``stiff``) where the characterisation has the roll probe. A row without one raises
-        :class:`SolveError` unless ``partial``."""
+        plane); held on its side and free, with the body's roll (:mod:`.roll`; its compliance divided by the
+        row's stiffness factor ``stiff``) where the characterisation has the roll probe. A blocked tip held on
+        its side keeps the weight out of its plane, as before the roll (assumed: the plane under the tip takes
+        the roll's small sag; the blocked probe that scales the tip's compliance has no weight). A row without
+        one raises :class:`SolveError` unless ``partial``."""
         gxz = gravity_xz(self.design, protocol.orientation, v("gravity"), density_scale)
         plane = 0.0 if protocol.kind == "force" else None
         roll = self.characterisation.roll_compliance_rad_per_n_mm
+        probe = self.characterisation.probe_roll or {}
+        if roll is not None and max(np.abs(probe.get("node_roll_deg", [0.0]))) < MIN_ROLL_DEG:
+            roll = None  # no roll to speak of (a symmetric body): the weight stays out of the plane
         try:
-            if protocol.orientation != "horizontal" or roll is None or v("gravity") == 0:
+            if protocol.orientation != "horizontal" or roll is None or v("gravity") == 0 or protocol.kind == "force":
                 return self._equilibria(angle, length, comp, gxz, plane, partial)
             g = v("gravity") * density_scale
 
@@ -379,10 +388,11 @@ class ReducedModel:
                         spread(state.force_n), state.iterations)
 
 
-def opens_the_bend(orientation: str) -> bool:
+def opens_the_bend(orientation: str, kind: str = "bending") -> bool:
     """The orientation's weight turns the actuator against its bend (toward +z): chambers down, and held on
-    its side, where the rolled body's weight in its bending plane points toward the chambers (:mod:`.roll`)."""
-    return orientation in ("chambers_down", "horizontal")
+    its side (free, not blocked: :meth:`ReducedModel._equilibrium`), where the rolled body's weight in its
+    bending plane points toward the chambers (:mod:`.roll`)."""
+    return orientation == "chambers_down" or (orientation == "horizontal" and kind != "force")
 
 
 def _calibration(calibration: Mapping[str, float]) -> dict[str, float]:
