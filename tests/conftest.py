@@ -61,11 +61,27 @@ def rom(fpn):
 
 
 @pytest.fixture(scope="module")
-def live(tmp_path_factory):
+def actuator_step(tmp_path_factory):
+    """template -> its actuator's STEP file (CAD only), exported once per test module that asks."""
+    from pnmold.cad import export_parts, make_parts
+
+    got = {}
+
+    def get(name):
+        if name not in got:
+            folder = tmp_path_factory.mktemp(f"cad-{name}")
+            export_parts({"actuator": make_parts(load_design(name))["actuator"]}, folder)
+            got[name] = folder / "actuator.step"
+        return got[name]
+
+    return get
+
+
+@pytest.fixture(scope="module")
+def live(actuator_step):
     """template -> (design, characterisation, actuator.step), FE on the coarse mesh at
     ``tests.rom_fe.FE_PRESSURE_KPA``, computed once per test module that asks (its files go to the
     session's FE cache)."""
-    from pnmold.cad import export_parts, make_parts
     from pnmold.physics import characterise
     from pnmold.physics.characterise import DEFAULT_MAX_PRESSURE_KPA
     from tests.rom_fe import COARSE, FE_PRESSURE_KPA, WITH_VARIANTS
@@ -78,12 +94,19 @@ def live(tmp_path_factory):
             assert FE_PRESSURE_KPA[name] != DEFAULT_MAX_PRESSURE_KPA  # another key than the bundled: the FE runs
             c = characterise(design, size=COARSE, max_pressure_kpa=FE_PRESSURE_KPA[name],
                              variants=name in WITH_VARIANTS)
-            folder = tmp_path_factory.mktemp(f"cad-{name}")
-            export_parts({"actuator": make_parts(design)["actuator"]}, folder)
-            got[name] = (design, c, folder / "actuator.step")
+            got[name] = (design, c, actuator_step(name))
         return got[name]
 
     return get
+
+
+@pytest.fixture(scope="module")
+def bundled(actuator_step):
+    """template -> (design, characterisation, actuator.step) as ``live``, with the characterisation that
+    ships with pnmold (the FE on the same coarse mesh, to 150 kPa, with probe and variants; read, no FE)."""
+    from tests.rom_fe import bundled_characterisation
+
+    return lambda name: (load_design(name), bundled_characterisation(name), actuator_step(name))
 
 
 # -- packing the suite on the two test workers ---------------------------------------------------

@@ -10,7 +10,7 @@ mesh (``produced_by`` in the file); ``test_stored_steps_match_the_live_fe`` re-d
 ``pnmold/data/characterisations/``: the templates' characterisations that ship with pnmold (the
 diagnosis tests read the fpn's); ``test_every_template_ships_its_characterisation`` checks they
 are the current templates', ``test_the_bundled_characterisation_matches_the_live_fe`` re-derives
-the fpn's first 12 kPa.
+the fpn's first 12 kPa (the other templates' reduced-model tests against the FE read their bundled ones).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from tests.rom_fe import (
     COARSE,
     FE_MIN_BEND_DEG,
     FE_PRESSURE_KPA,
+    bundled_characterisation,
     rom_carries_the_fe_response,
     rom_follows_the_fe_with_gravity,
 )
@@ -211,14 +212,6 @@ def test_stored_steps_match_the_live_fe(live):
     assert c.has_rod and c.probe_gravity_g > 0 and np.all(c.compliance_rad_per_n_mm >= 0)
 
 
-def _bundled(name: str) -> Characterisation:
-    from pnmold.physics.characterise import BUNDLED_DIR, DEFAULT_MAX_PRESSURE_KPA, DEFAULT_SIZE, cache_path
-
-    path = BUNDLED_DIR / cache_path(load_design(name), DEFAULT_SIZE, DEFAULT_MAX_PRESSURE_KPA).name
-    assert path.is_file(), f"{path.name} is not bundled: run scripts/bundle_characterisations.py {name}"
-    return Characterisation.from_json(json.loads(path.read_text()))
-
-
 @pytest.mark.parametrize("name", TEMPLATES)
 def test_every_template_ships_its_characterisation(name):
     """Each template's characterisation ships with pnmold, belongs to the current template (its
@@ -228,7 +221,7 @@ def test_every_template_ships_its_characterisation(name):
     from pnmold.physics.characterise import BUNDLED_DIR, VARIANT_FORMAT, variant_keys
 
     design = load_design(name)
-    stored = _bundled(name)
+    stored = bundled_characterisation(name)
     assert stored.design_name == name and stored.design_digest == digest(design)
     assert sorted(stored.variants) == sorted(variant_keys())
     assert all(doc.get("format") == VARIANT_FORMAT for doc in stored.variants.values())
@@ -246,19 +239,23 @@ def test_a_template_is_read_from_the_bundle_without_fe(tmp_path, monkeypatch):
     monkeypatch.setattr(ch, "_run_fe", lambda *a: pytest.fail("the FE ran"))
     monkeypatch.setattr(ch, "_run_variants", lambda *a: pytest.fail("the FE ran"))
     got = characterise(load_design("spn"))
-    assert got.design_name == "spn" and np.array_equal(got.pressure_kpa, _bundled("spn").pressure_kpa)
+    assert got.design_name == "spn" and np.array_equal(got.pressure_kpa, bundled_characterisation("spn").pressure_kpa)
     assert not (tmp_path / "cache").exists()
 
 
 @pytest.mark.slow
 def test_the_bundled_characterisation_matches_the_live_fe(live):
     """Where both ran (to 12 kPa, the same mesh), the bundled characterisation and the live FE agree:
-    tips within 0.5 % of the length, every variant's bend within 0.5 degrees."""
-    stored = _bundled("fpn")
+    tips within 0.5 % of the length, free and under the 0.35 g probe, every variant's bend within 0.5
+    degrees. The FE is the same for every template: this keeps the bundles that the sPN's and the Fig. S2
+    templates' reduced-model tests read (tests/test_rom_spn.py, tests/test_rom_families.py) the FE's."""
+    stored = bundled_characterisation("fpn")
     design, c, _ = live("fpn")
     for key in ("tip_x_mm", "tip_z_mm"):
         at = np.interp(c.pressure_kpa, stored.pressure_kpa, getattr(stored, key))
         assert np.abs(at - getattr(c, key)).max() < 0.005 * design.length_mm, key
+        at = np.interp(c.probe["pressure_kpa"], stored.probe["pressure_kpa"], stored.probe[key])
+        assert np.abs(at - np.asarray(c.probe[key])).max() < 0.005 * design.length_mm, ("probe", key)
     assert sorted(c.variants) == sorted(stored.variants)
     for effect in ("layer_compliance", "strain_stiffening"):
         for live_run, stored_run in zip(c.variant_runs(effect), stored.variant_runs(effect), strict=True):
