@@ -118,11 +118,13 @@ def bundled(actuator_step):
 # where and when it runs. (``--dist loadgroup`` cannot split or merge files here: xdist 3.8 marks
 # a group in ``item._nodeid``, which pytest 9 no longer reads.)
 
-#: seconds of the heaviest files in a full run (2 workers on a busy machine, --durations=0): only
-#: their order matters, so a stale figure costs some balance, never a result
+#: seconds of the heaviest files in a full run (2 workers on a busy machine, --durations=0; tests/test_rom_spn.py,
+#: tests/test_rom_families.py and tests/test_design_fe.py scaled by their CPU seconds before and after their
+#: reduced models read the bundled characterisations and the fPN's curve was shared): only their order matters,
+#: so a stale figure costs some balance, never a result
 FILE_SECONDS = {
-    "tests/test_design_fe.py": 1081, "tests/test_rom.py": 637, "tests/test_export.py": 594,
-    "tests/test_rom_families.py": 478, "tests/test_rom_spn.py": 387, "tests/test_sweep.py": 258,
+    "tests/test_design_fe.py": 925, "tests/test_rom.py": 637, "tests/test_export.py": 594,
+    "tests/test_rom_families.py": 205, "tests/test_rom_spn.py": 95, "tests/test_sweep.py": 258,
     "tests/test_real_segment.py": 180, "tests/test_pneumatics.py": 132, "tests/test_diagnose.py": 120,
     "tests/test_fem_path.py": 100, "tests/test_contact_fe.py": 60,
     "tests/test_report_html.py": 98, "tests/test_checks.py": 93, "tests/test_cad.py": 77,
