@@ -173,3 +173,38 @@ def test_held_on_its_side_the_fpn_follows_the_fe_with_its_roll():
     assert p.size >= 4 and fe[0, 1] > 5.0  # the FE's rest tip is off toward the chambers
     assert rolled_miss.max() < 0.05 * design.length_mm and rolled_miss[0] < 1.5
     assert flat_miss.max() > 2 * rolled_miss.max()
+
+
+def test_the_compliance_stiffens_with_the_effective_pressure():
+    """c / (1 + beta p) per row, the pressure floored at 0; beta None or 0 leaves it."""
+    from pnmold.physics.roll import stiffened
+
+    c = np.array([0.01, 0.02, 0.0])
+    got = stiffened(c, np.array([0.0, 10.0, -3.0]), 0.05)
+    assert got.shape == (3, 3)
+    assert got[0] == pytest.approx(c) and got[2] == pytest.approx(c)
+    assert got[1] == pytest.approx(c / 1.5)
+    assert stiffened(c, np.array([10.0]), None)[0] == pytest.approx(c)
+
+
+def test_the_stiffening_read_from_a_pressed_tip_is_the_one_that_made_it():
+    """The fPN's roll probe with pressed states made by the reduced model itself at a known stiffening: the
+    probe's reading gives it back, and without stiffening the model's tip there is millimetres off."""
+    import dataclasses
+
+    from pnmold.physics import Protocol, ReducedModel
+    from pnmold.physics.probes import roll_stiffening
+
+    design = load_design("fpn")
+    c = ReducedModel.for_design(design).characterisation
+    assert c.roll_compliance_rad_per_n_mm is not None
+    p, truth = np.array([5.0, 10.0]), 0.03
+    protocol = Protocol("bending", p, "horizontal")
+    made = ReducedModel(design, dataclasses.replace(c, roll_stiffening_per_kpa=truth)).run(protocol)
+    plain = ReducedModel(design, dataclasses.replace(c, roll_stiffening_per_kpa=0.0)).run(protocol)
+    assert np.hypot(made["tip_x_mm"][1] - plain["tip_x_mm"][1], made["tip_z_mm"][1] - plain["tip_z_mm"][1]) > 1.0
+    pressed = [{"pressure_kpa": float(q), "tip_x_mm": float(x), "tip_z_mm": float(z)}
+               for q, x, z in zip(p, made["tip_x_mm"], made["tip_z_mm"], strict=True)]
+    probe = {**c.probe_roll, "pressed": pressed}
+    found = roll_stiffening(design, dataclasses.replace(c, probe_roll=probe, roll_stiffening_per_kpa=None))
+    assert found == pytest.approx(truth, rel=0.05)

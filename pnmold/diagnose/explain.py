@@ -140,7 +140,7 @@ def declared(recordings) -> str:
 
 def _weight(orientation: str) -> str:
     return {"chambers_up": "its weight along -z", "chambers_down": "its weight along +z",
-            "horizontal": "its weight out of the bending plane",
+            "horizontal": "its weight across the bending plane, rolling the body about its length",
             "submerged": "its weight less the water's buoyancy"}.get(orientation, "no weight")
 
 

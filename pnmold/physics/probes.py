@@ -66,36 +66,81 @@ def characterised_for(design: Design, kinds: Sequence[str], orientations: Sequen
 def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
                progress: Callable[[str], None] | None = None) -> Characterisation:
     """The characterisation with the edges' torsional compliance held on its side
-    (``roll_compliance_rad_per_n_mm``, :mod:`pnmold.physics.roll`): the whole body (no half model: the
-    weight leaves the plane of symmetry) at rest under :data:`~pnmold.physics.roll.ROLL_PROBE_G`
-    horizontal, its sections' rolls read at the rod's nodes and identified with the rod under the rolled
-    weight (the chambers-down compliance: the rolled weight opens the bend; :func:`downward_probe` first).
-    FE, a minute or two; once, cached."""
+    (``roll_compliance_rad_per_n_mm``, :mod:`pnmold.physics.roll`) and its stiffening with pressure
+    (``roll_stiffening_per_kpa``): the whole body (no half model: the weight leaves the plane of symmetry)
+    under :data:`~pnmold.physics.roll.ROLL_PROBE_G` horizontal. At rest its sections' rolls read at the rod's
+    nodes are identified with the rod under the rolled weight (the chambers-down compliance: the rolled weight
+    opens the bend; :func:`downward_probe` first); carried on to
+    :data:`~pnmold.physics.roll.ROLL_PROBE_PRESSURE_SHARE` of the free run's last pressure, its tips on the way give
+    the stiffening (:func:`roll_stiffening`). FE, a few minutes; once, cached."""
     from pnmold.design_fe import run_fe
-    from pnmold.physics.roll import ROLL_PROBE_G, section_rolls
+    from pnmold.physics.roll import ROLL_PROBE_G, ROLL_PROBE_PRESSURE_SHARE, section_rolls
 
     size = replace(size or DEFAULT_SIZE, half=True)
     result = downward_probe(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
-    if (result.roll_compliance_rad_per_n_mm is not None or "roll" in result.probes_failed or result.source != "fe"
+    if (result.roll_stiffening_per_kpa is not None or "roll" in result.probes_failed or result.source != "fe"
             or not result.has_rod):
         return result
+    top = ROLL_PROBE_PRESSURE_SHARE * float(result.pressure_kpa[-1])
     (progress or (lambda stage: None))(f"{design.name}: roll probe (FE of the whole body, {ROLL_PROBE_G:g} g "
-                                       "horizontal, at rest)")
+                                       f"horizontal, to {top:.3g} kPa)")
     t0 = time.perf_counter()
     run = run_fe(design, orientation="horizontal", effects={"gravity": ROLL_PROBE_G},
-                 pressures_kpa=[float(result.pressure_kpa[1])], size=replace(size, half=False), keep_partial=True)
-    steps = run.solution.steps
-    if not steps or steps[0].pressure_kpa != 0.0 or not run.solution.shapes_mm:
+                 pressures_kpa=[top / 3.0, 2.0 * top / 3.0, top], size=replace(size, half=False), keep_partial=True)
+    steps, shapes = run.solution.steps, run.solution.shapes_mm
+    if not steps or steps[0].pressure_kpa != 0.0 or not shapes:
         return _failed(design, result, "roll", run.solution.reason or "no state at rest", size, max_pressure_kpa)
-    node_roll = section_rolls(run.mesh.nodes_mm, run.solution.shapes_mm[0], result.rod_x_mm)
+    node_roll = section_rolls(run.mesh.nodes_mm, shapes[0], result.rod_x_mm)
     roll = roll_compliance(design, result, node_roll, ROLL_PROBE_G)
     rest = steps[0]
     doc = {"tip_x_mm": rest.tip_x_mm, "tip_z_mm": rest.tip_z_mm, "bend_angle_deg": rest.bend_angle_deg,
-           "node_roll_deg": np.degrees(node_roll).tolist()}
+           "node_roll_deg": np.degrees(node_roll).tolist(), "pressed": []}
     result = replace(result, roll_compliance_rad_per_n_mm=roll, probe_roll_gravity_g=ROLL_PROBE_G, probe_roll=doc,
-                     timings_s={**result.timings_s, "probe_roll": round(time.perf_counter() - t0, 2)})
+                     roll_stiffening_per_kpa=0.0)
+    if len(steps) > 1 and len(shapes) == len(steps):
+        doc["pressed"] = [{"pressure_kpa": s.pressure_kpa, "tip_x_mm": s.tip_x_mm, "tip_z_mm": s.tip_z_mm,
+                           "node_roll_deg": np.degrees(section_rolls(run.mesh.nodes_mm, u, result.rod_x_mm)).tolist()}
+                          for s, u in zip(steps[1:], shapes[1:], strict=True)]
+        result = replace(result, roll_stiffening_per_kpa=roll_stiffening(design, result))
+    result = replace(result, timings_s={**result.timings_s, "probe_roll": round(time.perf_counter() - t0, 2)})
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
+
+
+def roll_stiffening(design: Design, result: Characterisation) -> float:
+    """The torsional stiffening with pressure (per kPa, :func:`pnmold.physics.roll.stiffened`) that brings the
+    reduced model's tips, held on its side at the roll probe's weight, nearest the FE's at the probe's pressed
+    states (``result``'s ``probe_roll["pressed"]``; least squares); 0 where there is none, the body hardly
+    rolls, or the tip moves less than :data:`~pnmold.physics.roll.ROLL_STIFFENING_MIN_SHARE` of the length over
+    the stiffening's range (the rolled weight moves nothing to read it from). Held within
+    :data:`~pnmold.physics.roll.ROLL_STIFFENING_BOUNDS` over the highest of those pressures."""
+    from scipy.optimize import minimize_scalar
+
+    from pnmold.physics.protocol import Protocol
+    from pnmold.physics.roll import ROLL_STIFFENING_BOUNDS, ROLL_STIFFENING_MIN_SHARE
+    from pnmold.physics.rom import MIN_ROLL_DEG, ReducedModel
+
+    probe = result.probe_roll or {}
+    pressed = probe.get("pressed") or []
+    if not pressed or max(np.abs(probe["node_roll_deg"])) < MIN_ROLL_DEG:
+        return 0.0
+    p = np.array([s["pressure_kpa"] for s in pressed])
+    fe = np.array([[s["tip_x_mm"], s["tip_z_mm"]] for s in pressed])
+    protocol = Protocol("bending", p, "horizontal")
+
+    def tips(beta: float) -> np.ndarray:
+        model = ReducedModel(design, replace(result, roll_stiffening_per_kpa=beta))
+        out = model.run(protocol, {"gravity": result.probe_roll_gravity_g}, partial=True)
+        return np.stack([out["tip_x_mm"], out["tip_z_mm"]], axis=1)
+
+    def miss(beta: float) -> float:
+        d = float(np.sum((tips(beta) - fe) ** 2))
+        return d if np.isfinite(d) else 1e18
+
+    lo, hi = (b / float(p.max()) for b in ROLL_STIFFENING_BOUNDS)
+    if not np.nanmax(np.hypot(*(tips(lo) - tips(hi)).T), initial=0.0) >= ROLL_STIFFENING_MIN_SHARE * design.length_mm:
+        return 0.0
+    return float(minimize_scalar(miss, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3 / p.max()}).x)
 
 
 def downward_probe(design: Design, *, size: MeshSize | None = None,

@@ -51,7 +51,7 @@ from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.protocol import Protocol
 from pnmold.physics.reading import FRAME, at_volumes, read_bend, read_tip, read_volume
 from pnmold.physics.rod import RodLoads, RodState, solve_rod
-from pnmold.physics.roll import roll_axis_mm, rolled, world
+from pnmold.physics.roll import roll_axis_mm, rolled, stiffened, world
 from pnmold.physics.rom_effects import (
     contact_onset,
     gravity_xz,
@@ -208,7 +208,7 @@ class ReducedModel:
                                                        partial)
         law = self._law_pressures(protocol, v, cal["modulus_scale"], partial)
         angle, length, comp, dhinge = self._hinges(law, protocol.kind, v, protocol.orientation)
-        state = self._equilibrium(protocol, angle, length, comp, v, partial, cal["density_scale"], law.stiff)
+        state = self._equilibrium(protocol, angle, length, comp, v, partial, cal["density_scale"], law)
         return self._observables(protocol, law, state, dhinge, cal, v)
 
     def _law_pressures(self, protocol: Protocol, v: Callable[[str], float], scale: float, partial: bool
@@ -266,10 +266,11 @@ class ReducedModel:
         return angle, length, comp, dhinge
 
     def _equilibrium(self, protocol: Protocol, angle: np.ndarray, length: np.ndarray, comp: np.ndarray,
-                     v: Callable[[str], float], partial: bool, density_scale: float, stiff: np.ndarray) -> RodState:
+                     v: Callable[[str], float], partial: bool, density_scale: float, law: _LawPressures) -> RodState:
         """Step 4 of the module docstring: the rod's equilibria under the weight (and, for ``force``, the
-        plane); held on its side and free, with the body's roll (:mod:`.roll`; its compliance divided by the
-        row's stiffness factor ``stiff``) where the characterisation has the roll probe. A blocked tip held on
+        plane); held on its side and free, with the body's roll (:mod:`.roll`; its compliance stiffened at the
+        row's effective pressure and divided by its stiffness factor) where the characterisation has the roll
+        probe. A blocked tip held on
         its side keeps the weight out of its plane, as before the roll (assumed: the plane under the tip takes
         the roll's small sag; the blocked probe that scales the tip's compliance has no weight). A row without
         one raises :class:`SolveError` unless ``partial``."""
@@ -294,7 +295,9 @@ class ReducedModel:
                         pass
                 return self._equilibria(angle, length, comp, (0.0, g), plane, partial, None, share)
 
-            return rolled(solve, roll[None, :] / stiff[:, None], self.loads, g, roll_axis_mm(self.design), partial)
+            c = self.characterisation
+            roll = stiffened(roll, law.p_bend, c.roll_stiffening_per_kpa) / law.stiff[:, None]
+            return rolled(solve, roll, self.loads, g, roll_axis_mm(self.design), partial)
         except RodError as err:
             at = ", ".join(f"{q:.4g}" for q in np.append(protocol.pressure_kpa, 0.0)[err.rows][:5])
             why = (": past a limit point the blocked tip slides back on the frictionless plane"
