@@ -55,6 +55,8 @@ def compare(design, share: float) -> dict:
         return {"design": design.name, "failed": c.probes_failed.get("roll", "no roll probe")}
     p = np.linspace(0.0, share * float(c.pressure_kpa[-1]), 5)
     steps = fe_steps(design, "horizontal", p[1:])
+    if not steps:
+        return {"design": design.name, "failed": "the FE held horizontal lost stability under its own weight at rest"}
     p = np.array([s["pressure_kpa"] for s in steps])
     fe = np.array([[s["tip_x_mm"], s["tip_z_mm"]] for s in steps])
     rolled = ReducedModel(design, c)
@@ -89,7 +91,7 @@ def main() -> None:
             print(f"{design.name}: {err}", flush=True)
             continue
         if "failed" in r:
-            print(f"{r['design']}: roll probe did not serve: {r['failed']}", flush=True)
+            print(f"{r['design']}: nothing to compare: {r['failed']}", flush=True)
             continue
         m = r["miss"]
         print(f"{r['design']} ({r['rubber']}), {r['p'][-1]:.3g} kPa top, probe's tip roll {r['tip_roll_deg']:.1f} deg, "

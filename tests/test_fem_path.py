@@ -295,8 +295,8 @@ def test_a_critical_point_ends_the_curve_as_an_instability_a_plain_failure_raise
 
 def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_pressure(beam, monkeypatch):
     """The gravity stage fails at a critical point (half its weight carried): the curve ends
-    there as ``instability`` with that state (0 kPa, the partial sag) and says so, instead
-    of raising; the stage's factorisations are still counted."""
+    there as ``instability`` with that state (0 kPa, the partial sag, ``rest_weight_g``) and says
+    so, instead of raising; the stage's factorisations are still counted."""
     from pnmold.fem import solver as solver_module
     from pnmold.fem.path import PathFailure
 
@@ -311,6 +311,7 @@ def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_
     assert sol.stop == "instability" and sol.full_bend_pressure_kpa is None
     assert len(sol.steps) == 1 and sol.steps[0].pressure_kpa == 0.0
     assert sol.steps[0].tip_z_mm < 0.0  # it sags under the half weight it carried
+    assert sol.rest_weight_g == pytest.approx(0.5)  # and says the rest carries half the weight
     assert "under 0.5 g of its own weight and before any pressure" in sol.reason
     assert "90% of the softest mode at x = " in sol.reason
     assert sol.stats["stage_factorizations"]["gravity"] > 0

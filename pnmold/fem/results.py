@@ -100,6 +100,8 @@ class Solution:
     pressure_maximum : the pressure maximum met along the curve, or None.
     contact_pressure_mpa : with self-contact, the contact pressure (MPa) at every P2 node at every
         step (:meth:`.contact.ContactSurface.nodal_pressure`); empty without.
+    rest_weight_g : None when the 0 kPa step carries the whole weight; else the weight (g) it carries,
+        the body having lost stability under its own weight before any pressure (``stop`` instability).
     """
 
     steps: tuple[Step, ...]
@@ -112,6 +114,7 @@ class Solution:
     stop: str = "full_bend"
     pressure_maximum: PressureMaximum | None = None
     contact_pressure_mpa: tuple[np.ndarray, ...] = ()
+    rest_weight_g: float | None = None
 
     @property
     def max_pressure_kpa(self) -> float:

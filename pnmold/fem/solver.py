@@ -241,7 +241,8 @@ def _curve(mesh: TetMesh, material: Yeoh, membrane: Membrane | None, pmax: float
              stats["total_s"], reason or "full bend")
     displacement = curve.shapes[-1]
     return Solution(tuple(curve.steps), displacement, fb, reason, stats, tuple(curve.shapes),
-                    tuple(curve.states), stop, curve.found.get("maximum"), tuple(curve.contact))
+                    tuple(curve.states), stop, curve.found.get("maximum"), tuple(curve.contact),
+                    curve.found.get("rest_weight_g"))
 
 
 def _stages(curve: _Curve, stage: str, pmax: float, targets: list[float] | None) -> str:
@@ -275,6 +276,7 @@ def _gravity_stage(curve: _Curve) -> tuple[State, PathFailure | None, Load | Non
             err.partial = curve.partial(str(err))
             raise err from None
         critical_load = setup.load(0.0, fail.last.t)
+        curve.found["rest_weight_g"] = float(fail.last.t)
         curve.found["instability_where"] = (f", under {fail.last.t:.3g} g of its own weight and before any "
                                             f"pressure (the last try {fail.target - fail.last.t:.2g} g more)")
         return fail.last, fail, critical_load

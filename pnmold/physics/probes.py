@@ -88,7 +88,7 @@ def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa
     run = run_fe(design, orientation="horizontal", effects={"gravity": ROLL_PROBE_G},
                  pressures_kpa=[top / 3.0, 2.0 * top / 3.0, top], size=replace(size, half=False), keep_partial=True)
     steps, shapes = run.solution.steps, run.solution.shapes_mm
-    if not steps or steps[0].pressure_kpa != 0.0 or not shapes:
+    if not steps or steps[0].pressure_kpa != 0.0 or not shapes or run.solution.rest_weight_g is not None:
         return _failed(design, result, "roll", run.solution.reason or "no state at rest", size, max_pressure_kpa)
     node_roll = section_rolls(run.mesh.nodes_mm, shapes[0], result.rod_x_mm)
     roll = roll_compliance(design, result, node_roll, ROLL_PROBE_G)
@@ -250,7 +250,7 @@ def _probe_compliance(design: Design, result: Characterisation, run, free_angle:
     (said in the log)."""
     probe = run.solution
     why = None
-    if len(probe.steps) < 2:
+    if len(probe.steps) < 2 or probe.rest_weight_g is not None:
         why = f"{probe.reason}"
     else:
         x, angle, length = bottom_line(run.mesh.nodes_mm, probe.shapes_mm)
