@@ -375,3 +375,31 @@ def test_the_pattern_grows_by_new_couplings_and_keeps_every_term_in_place():
         return bool(np.any(m.indices[m.indptr[r]:m.indptr[r + 1]] == c))
 
     assert stored(after) and not stored(before)
+
+
+def test_an_increment_whose_prediction_drives_the_blocks_together_is_shortened_before_it_is_solved():
+    """Block B predicted to move down by the increment (1 mm per unit): halved until the
+    prediction leaves the closest pair at least a quarter of the activation distance apart (the
+    blocks start 0.05 mm apart: a quarter of 0.1 mm, 0.025 mm), so 1 -> 1/64 (0.016 mm down);
+    moving up, or without self-contact, the increment is as asked."""
+    from pnmold.fem.states import State, clear_of_contact
+
+    model = block_model(contact())
+    upper = (model.X[:, 2] > HEIGHT + GAP0 / 2)[:, None]
+    state = State(0.0, np.zeros(model.ndof), 0.0, None)
+
+    def down(t: float) -> tuple[np.ndarray, float, None]:
+        return np.where(upper, [0.0, 0.0, -t], 0.0).ravel(), 0.0, None
+
+    assert model.contact.closest_gap(model.X) == pytest.approx(GAP0)
+    newton = Newton(model)
+    t_new, (u, _, _) = clear_of_contact(newton, state, 1.0, down)
+    assert t_new == pytest.approx(1 / 64)
+    assert model.contact.closest_gap(model.X + u.reshape(-1, 3)) == pytest.approx(GAP0 - 1 / 64)
+    assert model.contact.closest_gap(model.X + down(1 / 32)[0].reshape(-1, 3)) < 0.025  # one halving fewer fails
+    assert newton.stats.contact_shortenings == 6
+    assert clear_of_contact(newton, state, 1.0, lambda t: down(-t))[0] == 1.0
+    apart = Model(blocks(), Yeoh(), None, {"clamp": (0, 1, 2), "symmetry": (0, 1)})
+    assert clear_of_contact(Newton(apart), state, 1.0, down)[0] == 1.0
+    far = model.X + np.where(upper, [0.0, 0.0, 1.0], 0.0)
+    assert model.contact.closest_gap(far) == contact().activation_mm  # no pair: the activation distance

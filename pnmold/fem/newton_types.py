@@ -106,6 +106,7 @@ class Stats:
     krylov_solves: int = 0
     krylov_iterations: int = 0
     krylov_fallbacks: int = 0
+    contact_shortenings: int = 0
     stage_factorizations: dict[str, int] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
@@ -116,4 +117,5 @@ class Stats:
                 "newton_iterations": list(self.newton_iterations),
                 "krylov_solves": self.krylov_solves, "krylov_iterations": self.krylov_iterations,
                 "krylov_fallbacks": self.krylov_fallbacks,
+                "contact_shortenings": self.contact_shortenings,
                 "stage_factorizations": dict(self.stage_factorizations)}

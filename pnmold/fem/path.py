@@ -37,22 +37,24 @@ import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
-from .model import Evaluation, Load
+from .model import Evaluation, Load, Stresses
 from .newton import Newton
 from .newton_types import NewtonResult
 from .states import (
-                     Control,
-                     OnStep,
-                     PathFailure,
-                     State,
-                     extrapolate,
-                     first_increment,
-                     interpolate_volume,
-                     next_increment,
-                     peak_volume,
+    Control,
+    OnStep,
+    PathFailure,
+    State,
+    clear_of_contact,
+    extrapolate,
+    first_increment,
+    interpolate_volume,
+    next_increment,
+    peak_volume,
 )
 
 log = logging.getLogger(__name__)
@@ -123,10 +125,8 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
             raise PathFailure(what, state, t_new, None,
                               f"the {what} increment shrank to {dt:.3g} {unit}, below rounding",
                               _critical(newton, CRITICAL_AFTER_CUTS, base))
-        if len(history) == 1:
-            u_pred, s_pred = state.u + (t_new - t) * rate_u, state.stresses
-        else:
-            u_pred, _, s_pred = extrapolate(history, t_new, opt.predictor_order)
+        predict = partial(_ramp_prediction, list(history), rate_u, opt.predictor_order)
+        t_new, (u_pred, _, s_pred) = clear_of_contact(newton, state, t_new, predict)
         work = done + abs(float((t_new - t) * rate_rhs @ (u_pred - state.u)))
         res = newton.solve(u_pred, load_at(t_new), stresses=s_pred, work=work, strict=cuts < 2)
         if not res.converged:
@@ -155,6 +155,15 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
             if stop:
                 break
     return state
+
+
+def _ramp_prediction(history: Sequence[State], rate_u: np.ndarray, order: int, t_try: float
+                     ) -> tuple[np.ndarray, float, Stresses | None]:
+    """The predicted state of a load-controlled increment to ``t_try``: along the start's tangent
+    after the start, then extrapolated through the converged states."""
+    if len(history) == 1:
+        return history[0].u + (t_try - history[0].t) * rate_u, 0.0, history[0].stresses
+    return extrapolate(history, t_try, order)
 
 
 def continuation(newton: Newton, u: np.ndarray, load_at: Callable[[float], Load], t0: float,
@@ -205,8 +214,8 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
     while True:
         v_new, res = _volume_try(stage, history, state, dv, done, cuts)
         if not res.converged:
-            cuts = _failed_try(stage, state, v_new, dv, res, cuts)
-            dv *= 0.5
+            cuts = _failed_try(stage, state, v_new, v_new - state.t, res, cuts)
+            dv = 0.5 * (v_new - state.t)
             continue
         newton.stats.increments += 1
         new = State(v_new, res.u, res.pressure_mpa, res.evaluation, res.stresses)
@@ -228,7 +237,7 @@ def inflate(newton: Newton, start: State, load_at: Callable[[float], Load],
             if cuts > opt.max_cuts:
                 raise PathFailure("pressure", state, v_new, res,
                                   f"landing on a requested pressure failed after {cuts - 1} cuts")
-            dv *= 0.5
+            dv = 0.5 * (v_new - state.t)
             continue
         end = _report(stage, landings, new, pending)
         if end is not None:
@@ -287,10 +296,12 @@ def _volume_try(stage: _Inflation, history: Sequence[State], state: State, dv: f
         raise PathFailure("pressure", state, v_new, None,
                           f"the volume increment shrank to {dv:.3g} mm^3, below rounding",
                           _critical(newton, CRITICAL_AFTER_CUTS, stage.base))
-    if len(history) == 1:
-        u_pred, p_pred, s_pred = state.u + dv * stage.rate_u, state.p + dv * stage.rate_p, state.stresses
-    else:
-        u_pred, p_pred, s_pred = extrapolate(history, v_new, newton.options.predictor_order)
+    def predict(v: float) -> tuple[np.ndarray, float, Stresses | None]:
+        if len(history) == 1:
+            return state.u + (v - state.t) * stage.rate_u, state.p + (v - state.t) * stage.rate_p, state.stresses
+        return extrapolate(history, v, newton.options.predictor_order)
+
+    v_new, (u_pred, p_pred, s_pred) = clear_of_contact(newton, state, v_new, predict)
     res = newton.solve(u_pred, stage.load_at(p_pred), volume=v_new, stresses=s_pred,
                        work=done + abs((p_pred - state.p) * (v_new - state.t)), strict=cuts < 2)
     return v_new, res

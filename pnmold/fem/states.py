@@ -5,6 +5,8 @@
 - :func:`extrapolate` -- the Lagrange predictor through the last converged states;
 - :func:`first_increment`, :func:`next_increment` -- the first increment of a stage (from its
   tangent) and the next one (from the tangents and the bend of the last);
+- :func:`clear_of_contact` -- an increment shortened while its prediction drives walls into each
+  other (with self-contact);
 - :func:`interpolate_volume`, :func:`peak_volume` -- under volume control, the volume of a
   requested pressure and of a pressure maximum between the last converged states.
 """
@@ -153,3 +155,32 @@ def peak_volume(history: Sequence[State]) -> float:
         return t1
     vertex = 0.5 * (t0 + t1) - d01 / (2.0 * curv)
     return min(max(vertex, t0), t2)
+
+
+#: halvings of an increment at most while its prediction closes a contact pair too far
+#: (:func:`clear_of_contact`; assumed: 1/64 of the increment, then it is solved as it is)
+MAX_CONTACT_SHORTENINGS = 6
+
+
+def clear_of_contact(newton: Newton, state: State, t_new: float,
+                     predict: Callable[[float], tuple[np.ndarray, float, Stresses | None]]
+                     ) -> tuple[float, tuple[np.ndarray, float, Stresses | None]]:
+    """The increment from ``state`` to ``t_new`` and its prediction ``predict(t)``, the increment
+    halved while the predicted state brings a self-contact pair closer than
+    :attr:`~.contact.SelfContact.predicted_closing` allows (a prediction that drives walls into
+    each other: its first tangent then fails as too long, after a factorisation); unchanged
+    without self-contact."""
+    pred = predict(t_new)
+    touch = newton.model.contact
+    if touch is None:
+        return t_new, pred
+    x0 = newton.model.X
+    floor = touch.options.predicted_closing * touch.options.activation_mm
+    floor = min(floor, touch.closest_gap(x0 + state.u.reshape(-1, 3)) - floor)
+    for _ in range(MAX_CONTACT_SHORTENINGS):
+        if touch.closest_gap(x0 + pred[0].reshape(-1, 3)) >= floor:
+            break
+        newton.stats.contact_shortenings += 1
+        t_new = state.t + 0.5 * (t_new - state.t)
+        pred = predict(t_new)
+    return t_new, pred
