@@ -55,6 +55,7 @@ from .states import (
     interpolate_volume,
     next_increment,
     peak_volume,
+    predictor_order,
 )
 
 log = logging.getLogger(__name__)
@@ -125,7 +126,7 @@ def ramp(newton: Newton, start: State, load_at: Callable[[float], Load], t_end: 
             raise PathFailure(what, state, t_new, None,
                               f"the {what} increment shrank to {dt:.3g} {unit}, below rounding",
                               _critical(newton, CRITICAL_AFTER_CUTS, base))
-        predict = partial(_ramp_prediction, list(history), rate_u, opt.predictor_order)
+        predict = partial(_ramp_prediction, list(history), rate_u, predictor_order(newton, state))
         t_new, (u_pred, _, s_pred) = clear_of_contact(newton, state, t_new, predict)
         work = done + abs(float((t_new - t) * rate_rhs @ (u_pred - state.u)))
         res = newton.solve(u_pred, load_at(t_new), stresses=s_pred, work=work, strict=cuts < 2)
@@ -299,7 +300,7 @@ def _volume_try(stage: _Inflation, history: Sequence[State], state: State, dv: f
     def predict(v: float) -> tuple[np.ndarray, float, Stresses | None]:
         if len(history) == 1:
             return state.u + (v - state.t) * stage.rate_u, state.p + (v - state.t) * stage.rate_p, state.stresses
-        return extrapolate(history, v, newton.options.predictor_order)
+        return extrapolate(history, v, predictor_order(newton, state))
 
     v_new, (u_pred, p_pred, s_pred) = clear_of_contact(newton, state, v_new, predict)
     res = newton.solve(u_pred, stage.load_at(p_pred), volume=v_new, stresses=s_pred,
@@ -381,7 +382,7 @@ def _solve_peak(newton: Newton, history: Sequence[State], load_at: Callable[[flo
                 work: float) -> State | None:
     """The converged state at the located pressure maximum (volume control), or None."""
     v = peak_volume(history)
-    u_pred, p_pred, s_pred = extrapolate(history, v, min(newton.options.predictor_order,
+    u_pred, p_pred, s_pred = extrapolate(history, v, min(predictor_order(newton, history[-1]),
                                                          len(history) - 1))
     res = newton.solve(u_pred, load_at(p_pred), volume=v, stresses=s_pred, work=work,
                        strict=False)
@@ -393,7 +394,7 @@ def _land(newton: Newton, history: Sequence[State], p_target: float,
           load_at: Callable[[float], Load], work: float) -> State | None:
     """The converged state at exactly ``p_target`` between the last two states (pressure
     control from an interpolated predictor), or None."""
-    order = min(newton.options.predictor_order, len(history) - 1)
+    order = min(predictor_order(newton, history[-1]), len(history) - 1)
     v = interpolate_volume(history, p_target, order)
     u_pred, _, s_pred = extrapolate(history, v, order)
     res = newton.solve(u_pred, load_at(p_target), stresses=s_pred, work=work, strict=False)

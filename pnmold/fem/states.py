@@ -2,7 +2,8 @@
 
 - :class:`State` -- a converged state; :class:`Control` -- the step control of a stage;
   :class:`PathFailure` -- an increment that failed after the allowed cuts;
-- :func:`extrapolate` -- the Lagrange predictor through the last converged states;
+- :func:`extrapolate` -- the Lagrange predictor through the last converged states, of the order
+  :func:`predictor_order` gives;
 - :func:`first_increment`, :func:`next_increment` -- the first increment of a stage (from its
   tangent) and the next one (from the tangents and the bend of the last);
 - :func:`clear_of_contact` -- an increment shortened while its prediction drives walls into each
@@ -86,6 +87,16 @@ def extrapolate(history: Sequence[State], t_new: float, order: int
     if all(s.stresses is not None for s in pts):
         stresses = pts[-1].stresses.combine(weights, [s.stresses for s in pts])
     return u, p, stresses
+
+
+def predictor_order(newton: Newton, state: State) -> int:
+    """The order of the extrapolation from ``state``: the Newton options', at most
+    :attr:`~.contact.SelfContact.predictor_order` where self-contact pairs are active there."""
+    order = newton.options.predictor_order
+    touch = newton.model.contact
+    if touch is not None and state.ev is not None and state.ev.contact_pairs:
+        order = min(order, touch.options.predictor_order)
+    return order
 
 
 def first_increment(newton: Newton, rate_u: np.ndarray, angle: Callable[[np.ndarray], float],
