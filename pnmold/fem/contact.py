@@ -110,13 +110,16 @@ class SelfContact:
       factorisation. A quarter is assumed, set by the fPN build: predicted states with the
       closest pair at 0.06 mm or more had no more negative eigenvalues than the last converged
       state, those at 0.008 mm or less 1 to 31 more, every one from the contact's tangent.
-    - ``predictor_order`` 1: from a converged state with pairs active the path extrapolates
-      along the secant of the last two states (at most this order, :func:`.states.predictor_order`),
-      not the Newton options' 4th-order Lagrange polynomial: where walls touch, their motion turns
-      from one state to the next, the polynomial swings the stresses the first tangent is built
-      with, and Newton converged slowly (on the fPN build the 4th order's increments took 1 to 10
-      iterations, the residual falling 3-fold an iteration and rising again; the secant's took 2 to
-      5, the residual falling 100-fold an iteration from a larger start). 1 is assumed, not tuned.
+    - ``predictor_order`` 2: from a converged state with pairs active the path extrapolates
+      through the last three states at most (:func:`.states.predictor_order`), not the Newton
+      options' 4th-order Lagrange polynomial through five: through the states where walls
+      touched, Newton converged slowly from the 4th order's prediction (on the fPN build its
+      increments took 1 to 10 iterations, the residual falling 3-fold an iteration and at times
+      rising again; likely, not measured: where the walls' motion turns from one state to the
+      next the polynomial swings, and with it the stresses the first tangent is built with). Measured on
+      the fPN build (``benchmarks/contact.py``), orders 1 / 2 / 3 / 4 took 177 / 171 / 173 / 206
+      Newton iterations and 74 / 72 / 69 / 79 factorisations to the same end; 2 is the fewest
+      iterations and GMRES products, not tuned further.
     """
 
     penalty_mpa_per_mm: float = 10.0
@@ -126,7 +129,7 @@ class SelfContact:
     facing: tuple[float, float] = (0.25, 0.75)
     stop_where_ends_meet: bool = True
     predicted_closing: float = 0.25
-    predictor_order: int = 1
+    predictor_order: int = 2
 
 
 @dataclass
