@@ -352,7 +352,7 @@ def test_a_ramp_into_a_limit_point_stops_once_it_is_located_instead_of_creeping(
 
     class Fake:
         options = NewtonOptions()
-        model = SimpleNamespace(ndof=n, free=np.arange(n))
+        model = SimpleNamespace(ndof=n, free=np.arange(n), contact=None)
         span = 10.0
         inertia = most_negatives = 0
         stats = SimpleNamespace(cuts=0, increments=0)
