@@ -401,6 +401,9 @@ def test_an_increment_whose_prediction_drives_the_blocks_together_is_shortened_b
     assert clear_of_contact(newton, state, 1.0, lambda t: down(-t))[0] == 1.0
     apart = Model(blocks(), Yeoh(), None, {"clamp": (0, 1, 2), "symmetry": (0, 1)})
     assert clear_of_contact(Newton(apart), state, 1.0, down)[0] == 1.0
+    # a prediction that closes the pair at once, whatever the increment's length: not shortened
+    jump = clear_of_contact(newton, state, 1.0, lambda t: down(0.5 if t > 0 else 0.0))
+    assert jump[0] == 1.0 and newton.stats.contact_shortenings == 6
     far = model.X + np.where(upper, [0.0, 0.0, 1.0], 0.0)
     assert model.contact.closest_gap(far) == contact().activation_mm  # no pair: the activation distance
 

@@ -169,7 +169,8 @@ def peak_volume(history: Sequence[State]) -> float:
 
 
 #: halvings of an increment at most while its prediction closes a contact pair too far
-#: (:func:`clear_of_contact`; assumed: 1/64 of the increment, then it is solved as it is)
+#: (:func:`clear_of_contact`; assumed: where 1/64 of the increment still closes it, the increment
+#: is solved as it was asked)
 MAX_CONTACT_SHORTENINGS = 6
 
 
@@ -180,7 +181,8 @@ def clear_of_contact(newton: Newton, state: State, t_new: float,
     halved while the predicted state brings a self-contact pair closer than
     :attr:`~.contact.SelfContact.predicted_closing` allows (a prediction that drives walls into
     each other: its first tangent then fails as too long, after a factorisation); unchanged
-    without self-contact."""
+    without self-contact, and where even :data:`MAX_CONTACT_SHORTENINGS` halvings leave the pair
+    too close (it closes at once, not along the prediction: shortening would only crawl)."""
     pred = predict(t_new)
     touch = newton.model.contact
     if touch is None:
@@ -188,10 +190,13 @@ def clear_of_contact(newton: Newton, state: State, t_new: float,
     x0 = newton.model.X
     floor = touch.options.predicted_closing * touch.options.activation_mm
     floor = min(floor, touch.closest_gap(x0 + state.u.reshape(-1, 3)) - floor)
-    for _ in range(MAX_CONTACT_SHORTENINGS):
-        if touch.closest_gap(x0 + pred[0].reshape(-1, 3)) >= floor:
-            break
-        newton.stats.contact_shortenings += 1
-        t_new = state.t + 0.5 * (t_new - state.t)
-        pred = predict(t_new)
+    t_try, tried = t_new, pred
+    for _ in range(MAX_CONTACT_SHORTENINGS + 1):
+        if touch.closest_gap(x0 + tried[0].reshape(-1, 3)) >= floor:
+            newton.stats.contact_shortenings += int(round(math.log2((t_new - state.t) / (t_try - state.t))))
+            return t_try, tried
+        t_try = state.t + 0.5 * (t_try - state.t)
+        tried = predict(t_try)
+    # no shorter increment clears it: the pair closes at once (it switched to another triangle,
+    # or appeared deep), not along the prediction; the increment is solved as it was asked
     return t_new, pred
