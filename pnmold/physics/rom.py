@@ -270,8 +270,7 @@ class ReducedModel:
         """Step 4 of the module docstring: the rod's equilibria under the weight (and, for ``force``, the
         plane); held on its side and free, with the body's roll (:mod:`.roll`; its compliance stiffened at the
         row's effective pressure and divided by its stiffness factor) where the characterisation has the roll
-        probe. A blocked tip held on
-        its side keeps the weight out of its plane, as before the roll (assumed: the plane under the tip takes
+        probe. A blocked tip held on its side keeps the weight out of its plane, as before the roll (assumed: the plane under the tip takes
         the roll's small sag; the blocked probe that scales the tip's compliance has no weight). A row without
         one raises :class:`SolveError` unless ``partial``."""
         gxz = gravity_xz(self.design, protocol.orientation, v("gravity"), density_scale)
@@ -295,8 +294,7 @@ class ReducedModel:
                         pass
                 return self._equilibria(angle, length, comp, (0.0, g), plane, partial, None, share)
 
-            c = self.characterisation
-            roll = stiffened(roll, law.p_bend, c.roll_stiffening_per_kpa) / law.stiff[:, None]
+            roll = stiffened(roll, law.p_bend, self.characterisation.roll_stiffening_per_kpa) / law.stiff[:, None]
             return rolled(solve, roll, self.loads, g, roll_axis_mm(self.design), partial)
         except RodError as err:
             at = ", ".join(f"{q:.4g}" for q in np.append(protocol.pressure_kpa, 0.0)[err.rows][:5])
