@@ -270,9 +270,9 @@ class ReducedModel:
         """Step 4 of the module docstring: the rod's equilibria under the weight (and, for ``force``, the
         plane); held on its side and free, with the body's roll (:mod:`.roll`; its compliance stiffened at the
         row's effective pressure and divided by its stiffness factor) where the characterisation has the roll
-        probe. A blocked tip held on its side keeps the weight out of its plane, as before the roll (assumed: the plane under the tip takes
-        the roll's small sag; the blocked probe that scales the tip's compliance has no weight). A row without
-        one raises :class:`SolveError` unless ``partial``."""
+        probe. A blocked tip held on its side keeps the weight out of its plane, as before the roll (assumed:
+        the plane under the tip takes the roll's small sag; the blocked probe that scales the tip's compliance
+        has no weight). A row without one raises :class:`SolveError` unless ``partial``."""
         gxz = gravity_xz(self.design, protocol.orientation, v("gravity"), density_scale)
         plane = 0.0 if protocol.kind == "force" else None
         roll = self.characterisation.roll_compliance_rad_per_n_mm
