@@ -183,6 +183,26 @@ def corner_and_facet(beside_mm: float) -> tuple[np.ndarray, np.ndarray]:
     return X, np.array([[0, 1, 2, 9, 10, 11], [3, 4, 5, 12, 13, 14], [6, 7, 8, 15, 16, 17]])
 
 
+def test_the_kept_candidate_list_finds_the_pairs_a_fresh_search_finds():
+    """The small facet walks toward the side facet and past its edge in 0.02 mm steps: at each
+    step the surface that kept its candidate list pairs exactly as one searching afresh, and the
+    list is searched again only after the nodes moved past its margin."""
+    options = SelfContact(same_part_mm=0.02)
+    X, facets = corner_and_facet(0.3)
+    kept = ContactSurface(X, facets, options)
+    small = np.unique(facets[2])
+    paired = 0
+    for k in range(60):
+        x = X.copy()
+        x[small] += [-0.02 * min(k, 14), 0.0, 0.02 * max(k - 14, 0)]  # in to 0.02 mm, then up past the top
+        got, fresh = kept.pairs(x), ContactSurface(X, facets, options).pairs(x)
+        for a, b in zip(got, fresh, strict=True):
+            np.testing.assert_array_equal(a, b)
+        paired += got[0].size > 0
+    assert paired > 10
+    assert 1 < kept.searches < 20  # kept across steps, searched again after ~0.1 mm of travel
+
+
 def test_a_point_beside_a_wall_is_not_pushed_through_the_face_over_its_edge():
     """The small facet lies 0.36 mm from the top facet's edge, behind its plane, and 0.2 mm from the
     side facet (beyond the 0.1 mm activation). Its nearest surface is the side: no pair, no force

@@ -14,11 +14,13 @@ two facing surfaces pressed together carry the penalty ``penalty_mpa_per_mm`` on
 
 **Pairs, found on the deformed surface at every evaluation** (each Newton iterate and each
 trial of its line search, so residual, tangent and energy at one state use the same pairs):
-a KD-tree of the masters' deformed centroids gives each slave its candidates; those of *the
+a KD-tree of the masters' deformed centroids gives each slave its candidates, those of *the
 same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:`.overlap`;
-found once) are dropped; of the rest, the triangle nearest the slave is its pair (of triangles as
-near, around the edge or vertex nearest it, the one it faces most squarely) where the slave faces
-it at all (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
+found once) dropped, into a list kept while the nodes move less than its margin
+(:meth:`ContactSurface._candidates`: the same pairs as a fresh search, at a fraction of its cost);
+of the candidates a triangle's reach holds, the triangle nearest the slave is its pair (of
+triangles as near, around the edge or vertex nearest it, the one it faces most squarely) where
+the slave faces it at all (:attr:`SelfContact.facing`) at a signed distance in ``(-max_penetration_mm,
 activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex). The nearest facing triangle is
 chosen before that window: a point beside a wall, still beyond the activation distance, must not
 pair with the farther face over the wall's edge, behind whose plane it lies (a hanging fPN's
@@ -45,7 +47,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..tetmesh import CAVITY, SYMMETRY
-from .gap import gap, plane_gap, signed_distance
+from .gap import gap, signed_distance
 from .overlap import SAME_PART_MM, point_triangle_distance
 
 #: the 4 flat triangles of a 6-node facet (corners 0-2, midsides 01, 12, 02), oriented as it
@@ -57,6 +59,11 @@ _POINTS = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6,
 _UPPER = np.triu_indices(27)  # the row-by-row upper triangle of a pair's 27 x 27 tangent
 #: :func:`_near` searches the triangles up to this many times the median radius at once
 _RADIUS_SPREAD = 3.0
+#: the margin (mm) of the candidate pairs' list beyond the contact's reach (:meth:`ContactSurface._candidates`):
+#: a wider list is filtered longer at each evaluation but searched less often. Assumed, set by the
+#: fPN build's curve to the tip meeting the base (one run each, on a machine shared with other FE work):
+#: 0.25 / 0.5 / 1 / 2 mm took 159 / 136 / 107 / 81 searches and 23.3 / 24.8 / 26.5 / 30.4 s of assembly
+CANDIDATE_SKIN_MM = 0.5
 
 
 def _p2_shape(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -224,6 +231,12 @@ class ContactSurface:
         #: reference area of each slave point (facet-major, 3 a facet)
         self.area = (np.linalg.norm(jac, axis=2) / 6).ravel()
         self._same = self._same_part(X)
+        #: how far a slave point moves at most per unit of its facet's largest node motion
+        self._spread = float(np.abs(self.N).sum(axis=1).max())
+        self._nodes = np.unique(self.facets)
+        self._listed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # (x, s, t)
+        #: the candidate lists made (:meth:`_candidates`)
+        self.searches = 0
 
     def points(self, x: np.ndarray) -> np.ndarray:
         """(3 K, 3) positions of the slave points with the nodes at ``x``."""
@@ -246,15 +259,17 @@ class ContactSurface:
 
         opt = self.options
         p, xs_all = x[self.triangles], self.points(x)
-        centroid = p.mean(axis=1)
         reach = max(opt.activation_mm, opt.max_penetration_mm)
+        s, t = self._candidates(x, p, xs_all, reach)
+        centroid = p.mean(axis=1)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1) + reach
-        s, t, _ = _near(xs_all, centroid, radius)
-        key = s * len(self.triangles) + t
-        pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
-        keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
-        plane = plane_gap(xs_all[s], p[t])
-        keep &= np.abs(plane) < reach  # the distance is at least the plane's
+        normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        d = xs_all[s] - centroid[t]
+        near = np.einsum("ij,ij->i", d, d) <= radius[t] ** 2  # those a triangle's reach holds now
+        s, t, d = s[near], t[near], d[near]
+        plane = np.einsum("ij,ij->i", d, normal[t])  # the plane gap (:func:`.gap.plane_gap`): the centroid is on it
+        keep = np.abs(plane) < reach  # the distance is at least the plane's
         s, t, plane = s[keep], t[keep], plane[keep]
         closest = closest_point(p[t], xs_all[s])
         dist = np.linalg.norm(xs_all[s] - closest, axis=1)
@@ -283,6 +298,30 @@ class ContactSurface:
         start = np.where(feature == 2, (np.argmin(on, axis=1) + 1) % 3,
                          np.where(feature == 1, np.argmax(on, axis=1), 0))
         return s, self.triangles[t][np.arange(t.size)[:, None], (start[:, None] + np.arange(3)) % 3], feature
+
+    def _candidates(self, x: np.ndarray, p: np.ndarray, xs: np.ndarray, reach: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """The (slave point, triangle) pairs of different parts that may lie within ``reach`` of
+        each other at the node positions ``x`` (triangles ``p``, slave points ``xs``): a list of
+        those within ``reach`` plus :data:`CANDIDATE_SKIN_MM` of the triangle's centroid and
+        radius, made at some positions ``x0`` and kept while no surface node has moved more than
+        ``d`` from them, ``(3 + spread) d`` at most the skin. A slave point then moves at most
+        ``spread d`` (its shape functions' absolute sum), a centroid ``d`` and a radius ``2 d``,
+        so no pair within ``reach`` now was beyond the list's distance at ``x0``."""
+        if self._listed is not None:
+            x0, s, t = self._listed
+            moved = float(np.sqrt(((x[self._nodes] - x0[self._nodes]) ** 2).sum(axis=1).max()))
+            if (3 + self._spread) * moved <= CANDIDATE_SKIN_MM:
+                return s, t
+        centroid = p.mean(axis=1)
+        radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1) + reach + CANDIDATE_SKIN_MM
+        s, t, _ = _near(xs, centroid, radius)
+        key = s * len(self.triangles) + t
+        pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
+        keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
+        self._listed = (x.copy(), s[keep], t[keep])
+        self.searches += 1
+        return s[keep], t[keep]
 
     def terms(self, x: np.ndarray, want_k: bool) -> ContactTerms:
         """The contact's energy, residual and tangent at the node positions ``x``."""
