@@ -387,8 +387,10 @@ def _make(c: Case, data: Path, key_dir: Path) -> Case:
 
 def testable(folder: Path) -> bool:
     """Whether the case's bending recording holds at least :data:`MIN_PRESSURES` distinct pressures: a
-    batch whose solve ends at rest (e.g. a floppy Ecoflex design that cannot be pressurised chambers up
-    under its own weight) gives a recording of rest rows, which tests no diagnosis."""
+    batch whose solve ends at rest gives a recording of rest rows, which tests no diagnosis, and one that
+    cannot carry its own weight (e.g. a floppy Ecoflex design held chambers up) no recording at all."""
+    if not (folder / "bending.csv").is_file():
+        return False
     rec = read_recording(folder / "bending.csv")
     return np.unique(np.round(rec.columns["pressure_kpa"], 6)).size >= MIN_PRESSURES
 
@@ -400,8 +402,8 @@ def kept(cases: list[Case], data: Path) -> list[Case]:
         if testable(data / c.id):
             out.append(c)
         else:
-            print(f"{c.id}: left out: {Path(c.batch).stem} {c.orientation} holds rest rows only (its solve "
-                  f"ended at rest)", flush=True)
+            print(f"{c.id}: left out: {Path(c.batch).stem} {c.orientation} holds rest rows only, or none (its "
+                  f"solve ended at rest)", flush=True)
     return out
 
 

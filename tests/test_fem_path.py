@@ -7,6 +7,7 @@ Small structured meshes (scikit-fem boxes, no gmsh), as in ``test_fem.py``.
 
 from __future__ import annotations
 
+import json
 import math
 from types import SimpleNamespace
 
@@ -315,6 +316,32 @@ def test_a_body_that_buckles_under_its_weight_ends_as_an_instability_before_any_
     assert "under 0.5 g of its own weight and before any pressure" in sol.reason
     assert "90% of the softest mode at x = " in sol.reason
     assert sol.stats["stage_factorizations"]["gravity"] > 0
+
+
+def test_simulate_records_no_rest_that_carries_part_of_the_weight(monkeypatch, tmp_path):
+    """``simulate --model fe`` of a body that buckles under its weight at rest: its partial rest is no
+    state of the rig, so the document has no rows, the JSON says why, and a recording is refused
+    with that reason (non-zero exit) instead of holding a rest row at part of the weight."""
+    import pnmold.design_fe
+    from pnmold.design import load_design
+    from pnmold.simulate.quasistatic import SimulationRequest, simulate
+
+    rest = SimpleNamespace(pressure_kpa=0.0, as_dict=lambda: {"pressure_kpa": 0.0, "tip_x_mm": 80.0, "tip_z_mm": -20.0,
+                                                             "bend_angle_deg": -30.0, "cavity_volume_ml": 10.0})
+    why = "lost stability under 0.315 g of its own weight and before any pressure"
+    for carried in (0.315, None):
+        sol = SimpleNamespace(steps=[rest], rest_weight_g=carried, reason=why, full_bend_pressure_kpa=None)
+        run = SimpleNamespace(solution=sol, gravity_g=1.0)
+        monkeypatch.setattr(pnmold.design_fe, "run_fe", lambda *a, run=run, **k: run)
+        request = SimulationRequest(pressures_kpa=(0.0, 5.0, 10.0))
+        if carried is None:  # the whole weight carried: the rest row is recorded
+            assert len(simulate(load_design("fpn"), request).doc["steps"]) == 1
+            continue
+        with pytest.raises(SolveError, match="solved no row to record: lost stability under 0.315 g"):
+            simulate(load_design("fpn"), request, json_path=tmp_path / "s.json", recording_path=tmp_path / "r.csv")
+    assert not (tmp_path / "r.csv").exists()
+    doc = json.loads((tmp_path / "s.json").read_text())
+    assert doc["steps"] == [] and doc["reason"] == why
 
 
 @pytest.mark.parametrize(("first", "most", "converged", "base", "cuts", "expected"), [

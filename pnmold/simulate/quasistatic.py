@@ -166,6 +166,9 @@ def simulate(design: Design, request: SimulationRequest, *, json_path: str | Pat
     written = [Path(doc["paraview"]["pvd"])] if vtu_dir is not None else []
     if json_path:
         written.append(write_json(json_path, doc))
+    if recording_path and not doc["steps"]:
+        raise SolveError(f"{recording_path}: not written, the {request.model.upper()} solved no row to record: "
+                         f"{doc['reason']}", stage="recording")
     if recording_path:
         noise = noise or Noise()
         columns = noisy_columns(recording_columns(doc), noise_mm=noise.mm, noise_ml=noise.ml, noise_n=noise.n,
@@ -244,7 +247,9 @@ def simulate_fe(design: Design, request: SimulationRequest, *, vtu_dir: str | Pa
         index = write_vtu_series(run.mesh, sol, vtu_dir, name="force" if request.kind == "force" else "bending")
         paraview = {"paraview": {"pvd": str(index), "steps": len(sol.steps)}}
     wanted = set(np.round(request.pressures_kpa, 6))
-    inflate = [s.as_dict() for s in sol.steps if round(s.pressure_kpa, 6) in wanted]
+    # a rest that carries only part of the weight (the body lost stability under it) is no state of the rig
+    whole = sol.rest_weight_g is None
+    inflate = [s.as_dict() for s in sol.steps if whole and round(s.pressure_kpa, 6) in wanted]
     steps = _with_time(_cycled(inflate, request.cycles), request.rate_kpa_per_s)
     return {"schema": SCHEMA, "design": {"name": design.name, "digest": digest(design)}, "model": "fe",
             "kind": request.kind, "orientation": request.orientation if run.gravity_g else NO_GRAVITY,
