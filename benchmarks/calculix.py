@@ -24,12 +24,15 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from pnmold.cad import export_actuator_step  # noqa: E402
 from pnmold.design import load_design  # noqa: E402
 from pnmold.design_fe import BUILD_MESH, run_fe  # noqa: E402
 from pnmold.export.abaqus import DeckOptions  # noqa: E402
-from pnmold.export.calculix import compare_with_calculix, find_ccx  # noqa: E402
+from pnmold.export.calculix import compare_with_calculix, find_ccx, read_displacements  # noqa: E402
+from pnmold.export.contact_pairs import closest_walls_mm, gap_pairs  # noqa: E402
 from pnmold.fem import SelfContact  # noqa: E402
 from pnmold.fem.solver import SolveOptions  # noqa: E402
 from pnmold.tetmesh import MeshSize  # noqa: E402
@@ -61,6 +64,7 @@ def main() -> None:
         fe_s = time.perf_counter() - t0
         deck = DeckOptions(layer=args.layer, contact_mpa_per_mm=args.contact)
         cmp = compare_with_calculix(run, folder, pressures, options=deck, threads=args.threads)
+        walls = closest_walls(run, cmp, folder / "actuator.frd") if args.contact else None
     s = run.solution.stats
     print(f"fPN, mesh {size.wall_mm:g}/{size.max_mm:g} mm (half model): {run.quality.n_tets} tets, "
           f"{s.get('unknowns')} unknowns (pnmold), paper as {args.layer}, "
@@ -77,6 +81,25 @@ def main() -> None:
         print(f"{p:6.2f} {a[0]:8.2f} {a[1]:8.2f}  {b[0]:8.2f} {b[1]:8.2f}  {c[0]:8.2f} {c[1]:8.2f}  "
               f"{100 * err[i]:8.1f}%  {100 * errp[i]:11.1f}%")
     print("differences: |tip_CalculiX - tip| / the tip's travel from rest")
+    if walls is not None:
+        print("the gaps' walls: the smallest distance (mm) from a corner of a gap's +x wall to its -x wall, "
+              "over the gaps (pnmold's contact acts from 0.1 mm; the deck's linear penalty from touch, 0)")
+        print(f"{'kPa':>6} {'pnmold':>8} {'pointwise':>10} {'CalculiX':>9}")
+        for p, row in zip(cmp.pressures_kpa, walls, strict=True):
+            print(f"{p:6.2f} {row[0]:8.3f} {row[1]:10.3f} {row[2]:9.3f}")
+
+
+def closest_walls(run, cmp, frd: Path) -> np.ndarray:
+    """(pressures, 3): the smallest wall-to-wall distance over the gaps (:func:`closest_walls_mm`) in
+    pnmold's, its pointwise solve's and CalculiX's deformed shapes at the compared pressures."""
+    pairs, X = gap_pairs(run.mesh), run.mesh.nodes_mm
+    ours = {round(s.pressure_kpa, 9): u for s, u in zip(run.solution.steps, run.solution.shapes_mm, strict=True)}
+    times, disp = read_displacements(frd)  # the deck numbers the mesh's corner nodes first, as pnmold does
+    ccx = {round(t, 9): d[:len(X)] for t, d in zip(times, disp, strict=True)}
+    return np.array([[closest_walls_mm(pairs, X + ours[round(p, 9)]).min(),
+                      closest_walls_mm(pairs, X + cmp.pointwise_shapes_mm[i]).min(),
+                      closest_walls_mm(pairs, X + ccx[round(t, 9)]).min() if round(t, 9) in ccx else np.nan]
+                     for i, (p, t) in enumerate(zip(cmp.pressures_kpa, cmp.calculix.times, strict=True))])
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ import pytest
 
 from pnmold.errors import ExportError
 from pnmold.export.abaqus import DeckOptions, abaqus_deck, paper_wedges, tip_node, write_abaqus
-from pnmold.export.calculix import find_ccx, read_tip, run_ccx
+from pnmold.export.calculix import find_ccx, read_displacements, read_tip, run_ccx
 from pnmold.export.constants import (
     fit_mooney_rivlin,
     material_constants,
@@ -241,6 +241,11 @@ def test_calculix_runs_the_beam_deck_like_pnmold(beam, tmp_path):
     deck = write_abaqus(tmp_path / "beam.inp", q, Yeoh(), Membrane(), pressures_kpa=BEAM_PRESSURES,
                         gravity_g=(0.0, 0.0, -1.0), options=DeckOptions(layer="M3D6"))
     ccx = run_ccx(deck)
+    # the result file's displacements (read_displacements) are the printed tip's at every output time
+    times, disp = read_displacements(tmp_path / "beam.frd")
+    tip = int(re.search(r"^\*NSET, NSET=TIP\s*\n\s*(\d+)", deck.read_text(), flags=re.MULTILINE).group(1))
+    np.testing.assert_allclose(times, ccx.times)
+    np.testing.assert_allclose(disp[:, tip - 1], ccx.tip_mm, rtol=1e-4, atol=1e-5)
     # the deck carries the paper's own 6.5 GPa: so does this solve (no series sheet, material.py)
     pointwise = solve_bending(beam, Yeoh(volumetric="penalty"), Membrane(contrast=None),
                               pressures_kpa=list(BEAM_PRESSURES),
@@ -333,7 +338,7 @@ def test_the_gaps_walls_face_each_other_across_the_designs_gap(built):
     """gap_pairs on the fPN's coarse mesh: one pair per gap, the slave wall's outward normals along
     +x, the master's along -x, the two walls the design's gap apart, each wall a full chamber wall."""
     from pnmold.design import load_design
-    from pnmold.export.contact_pairs import gap_pairs
+    from pnmold.export.contact_pairs import closest_walls_mm, gap_pairs
     from pnmold.mesh import mesh_actuator
     from pnmold.tetmesh import MeshSize
 
@@ -348,6 +353,12 @@ def test_the_gaps_walls_face_each_other_across_the_designs_gap(built):
             n = np.cross(x[facets[:, 1]] - x[facets[:, 0]], x[facets[:, 2]] - x[facets[:, 0]])
             assert np.all(sign * n[:, 0] / np.linalg.norm(n, axis=1) > 0.9)
             assert np.ptp(x[facets][..., 2]) > 0.5 * design.chambers.height_mm  # the wall, not a sliver
+    # how near the walls are: the design's gap at rest; each front wall moved half the gap back, half of it
+    np.testing.assert_allclose(closest_walls_mm(pairs, x), design.chambers.gap_mm, atol=0.05)
+    moved = x.copy()
+    for pair in pairs:
+        moved[np.unique(pair.master), 0] -= 0.5 * design.chambers.gap_mm
+    np.testing.assert_allclose(closest_walls_mm(pairs, moved), 0.5 * design.chambers.gap_mm, atol=0.05)
 
 
 def test_export_sofa_from_a_build_folder(built, tmp_path):

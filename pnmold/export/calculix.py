@@ -121,6 +121,31 @@ def read_tip(dat: str | Path, set_name: str = "TIP") -> tuple[np.ndarray, np.nda
     return np.array(times), np.array(values).reshape(-1, 3)
 
 
+def read_displacements(frd: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(times, (k, n, 3) displacements of nodes 1..n) of the ``DISP`` blocks of a ``.frd`` result
+    file (its ``*NODE FILE`` output; nodes it does not list are 0; empty when the file is missing)."""
+    path = Path(frd)
+    if not path.is_file():
+        return np.zeros(0), np.zeros((0, 0, 3))
+    times, blocks, rows, time, reading = [], [], None, 0.0, False
+    for line in path.read_text().splitlines():
+        if line.startswith("  100C"):
+            time = float(line[12:24])
+        elif line.startswith(" -4  DISP"):
+            rows, reading = [], True
+        elif reading and line.startswith(" -1"):
+            rows.append((int(line[3:13]), *(float(line[13 + 12 * j:25 + 12 * j]) for j in range(3))))
+        elif reading and line.startswith(" -3"):
+            table = np.array(rows)
+            disp = np.zeros((int(table[:, 0].max()), 3))
+            disp[table[:, 0].astype(int) - 1] = table[:, 1:]
+            times.append(time)
+            blocks.append(disp)
+            reading = False
+    n = max((b.shape[0] for b in blocks), default=0)
+    return np.array(times), np.array([np.pad(b, ((0, n - b.shape[0]), (0, 0))) for b in blocks]).reshape(-1, n, 3)
+
+
 def _increments(sta: Path) -> int:
     if not sta.is_file():
         return 0
@@ -135,7 +160,8 @@ class TipComparison:
 
     ``pnmold_mm`` is the run being compared (mean-dilatation volumetric term);
     ``pointwise_mm`` the same mesh and loads solved by pnmold with the pointwise penalty that
-    CalculiX's C3D10 uses (None when not asked for).
+    CalculiX's C3D10 uses (None when not asked for), ``pointwise_shapes_mm`` its mesh nodes'
+    displacements at those pressures ((k, n, 3), None with it).
     """
 
     pressures_kpa: np.ndarray
@@ -145,6 +171,7 @@ class TipComparison:
     pointwise_mm: np.ndarray | None
     calculix: CcxRun
     pointwise_s: float | None
+    pointwise_shapes_mm: np.ndarray | None = None
 
     def travel_mm(self, which: str = "pnmold") -> np.ndarray:
         """How far the tip has moved from rest (``which``: ``pnmold`` or ``pointwise``)."""
@@ -190,12 +217,15 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     material, membrane, regions = run.problem.material, run.problem.membrane, run.problem.regions
     wanted = ([0.0] if run.gravity_g is not None else []) + targets
 
-    def tips_at(steps) -> np.ndarray:
-        by_p = {round(s.pressure_kpa, 9): (s.tip_x_mm, s.tip_z_mm) for s in steps}
+    def at_wanted(steps, values) -> np.ndarray:
+        by_p = {round(s.pressure_kpa, 9): v for s, v in zip(steps, values, strict=True)}
         missing = [p for p in wanted if round(p, 9) not in by_p]
         if missing:
             raise UsageError(f"the FE curve has no converged step at {missing} kPa")
         return np.array([by_p[round(p, 9)] for p in wanted])
+
+    def tips_at(steps) -> np.ndarray:
+        return at_wanted(steps, [(s.tip_x_mm, s.tip_z_mm) for s in steps])
 
     ours = tips_at(run.solution.steps)
     deck = write_abaqus(Path(folder) / "actuator.inp", quadratic_mesh(run.mesh), material, membrane,
@@ -204,7 +234,7 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
     ccx = run_ccx(deck, threads=threads)
     rest = np.array([run.mesh.tip_mm[0], run.mesh.tip_mm[2]])
     theirs = ccx.tip_mm[:, [0, 2]] + rest
-    penalty, seconds = None, None
+    penalty, seconds, shapes = None, None, None
     k = getattr(options, "contact_mpa_per_mm", None)
     contact = SelfContact(penalty_mpa_per_mm=k) if k is not None else None
     if pointwise:
@@ -215,5 +245,5 @@ def compare_with_calculix(run, folder: str | Path, pressures_kpa, *, options=Non
                                                  self_contact=contact),
                             regions={k: dataclasses.replace(m, volumetric="penalty") for k, m in regions.items()})
         seconds = time.perf_counter() - t0
-        penalty = tips_at(sol.steps)
-    return TipComparison(np.array(wanted), rest, ours, theirs, penalty, ccx, seconds)
+        penalty, shapes = tips_at(sol.steps), at_wanted(sol.steps, sol.shapes_mm)
+    return TipComparison(np.array(wanted), rest, ours, theirs, penalty, ccx, seconds, shapes)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pnmold.fem.contact import outer_faces
+from pnmold.fem.overlap import point_triangle_distance
 from pnmold.tetmesh import TetMesh
 
 #: a facet counts as facing along x where its normal is within ~25 degrees of it
@@ -76,6 +77,18 @@ def gap_pairs(mesh: TetMesh, max_gap_mm: float = MAX_GAP_MM) -> list[GapPair]:
             if np.all(_facing_mm(x[fb], x[ff]) >= MIN_FACING_MM):
                 pairs.append(GapPair(fb, ff, (xb, xf)))
     return pairs
+
+
+def closest_walls_mm(pairs: list[GapPair], x: np.ndarray) -> np.ndarray:
+    """Per gap, the smallest distance (mm) from a corner of its slave wall's facets to its master
+    wall's facets with the linear mesh's nodes at ``x`` (n, 3): how near the walls have come (the
+    facets are flat on their corners; a quadratic face's midside may lie nearer, by its bulge)."""
+    out = np.full(len(pairs), np.inf)
+    for k, pair in enumerate(pairs):
+        points, tri = x[np.unique(pair.slave)], x[pair.master]
+        pt = np.repeat(points, len(tri), axis=0)
+        out[k] = point_triangle_distance(pt, np.tile(tri, (len(points), 1, 1))).min()
+    return out
 
 
 def _facing_mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
