@@ -260,9 +260,9 @@ class ContactSurface:
         opt = self.options
         p, xs_all = x[self.triangles], self.points(x)
         reach = max(opt.activation_mm, opt.max_penetration_mm)
-        s, t = self._candidates(x, p, xs_all, reach)
         centroid = p.mean(axis=1)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1) + reach
+        s, t = self._candidates(x, xs_all, centroid, radius)
         normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         normal /= np.linalg.norm(normal, axis=1)[:, None]
         d = xs_all[s] - centroid[t]
@@ -299,13 +299,13 @@ class ContactSurface:
                          np.where(feature == 1, np.argmax(on, axis=1), 0))
         return s, self.triangles[t][np.arange(t.size)[:, None], (start[:, None] + np.arange(3)) % 3], feature
 
-    def _candidates(self, x: np.ndarray, p: np.ndarray, xs: np.ndarray, reach: float
+    def _candidates(self, x: np.ndarray, xs: np.ndarray, centroid: np.ndarray, reach: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
-        """The (slave point, triangle) pairs of different parts that may lie within ``reach`` of
-        each other at the node positions ``x`` (triangles ``p``, slave points ``xs``): a list of
-        those within ``reach`` plus :data:`CANDIDATE_SKIN_MM` of the triangle's centroid and
-        radius, made at some positions ``x0`` and kept while no surface node has moved more than
-        ``d`` from them, ``(3 + spread) d`` at most the skin. A slave point then moves at most
+        """The (slave point, triangle) pairs of different parts whose point may lie within a
+        triangle's ``reach`` of its ``centroid`` (its radius and the contact's reach) at the node
+        positions ``x`` (slave points ``xs``): a list of those within ``reach`` plus
+        :data:`CANDIDATE_SKIN_MM`, made at some positions ``x0`` and kept while no surface node has
+        moved more than ``d`` from them, ``(3 + spread) d`` at most the skin. A slave point then moves at most
         ``spread d`` (its shape functions' absolute sum), a centroid ``d`` and a radius ``2 d``,
         so no pair within ``reach`` now was beyond the list's distance at ``x0``."""
         if self._listed is not None:
@@ -313,9 +313,7 @@ class ContactSurface:
             moved = float(np.sqrt(((x[self._nodes] - x0[self._nodes]) ** 2).sum(axis=1).max()))
             if (3 + self._spread) * moved <= CANDIDATE_SKIN_MM:
                 return s, t
-        centroid = p.mean(axis=1)
-        radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1) + reach + CANDIDATE_SKIN_MM
-        s, t, _ = _near(xs, centroid, radius)
+        s, t, _ = _near(xs, centroid, reach + CANDIDATE_SKIN_MM)
         key = s * len(self.triangles) + t
         pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
         keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
