@@ -65,6 +65,26 @@ def test_a_block_pushed_into_another_is_found_with_its_depth(stacked, push):
     assert np.all(ov.surface_depth_mm <= ov.depth_mm + 1e-12)
 
 
+def test_a_half_models_symmetry_plane_is_not_a_surface_its_nodes_are_measured_to(stacked):
+    """The blocks lie at y >= 0, a half model's side of its symmetry plane: a node of B's bottom on
+    that plane, pushed 0.02 mm into A, is 0.02 mm from A's outer surface (its top), not 0 from A's
+    face on the plane, which the mirror half covers."""
+    X = stacked.nodes_mm
+    u = np.zeros_like(X)
+    upper = X[:, 2] > 1.0 + GAP / 2
+    u[upper, 2] = -(GAP + 0.02)
+    ov = measure_overlap(X, stacked.cells, u)
+    on_plane = (np.abs(X[ov.nodes, 1]) < 1e-9) & (np.abs(X[ov.nodes, 0] - 1.5) < 1.0) & upper[ov.nodes]
+    assert on_plane.sum() >= 2
+    np.testing.assert_allclose(ov.surface_depth_mm[on_plane], 0.02, atol=1e-9)
+    # the same blocks as a whole model (moved to y < 0 in part): the plane's faces are surface again
+    shifted = X - np.array([0.0, 1.5, 0.0])
+    whole = measure_overlap(shifted, stacked.cells, u)
+    assert set(whole.nodes.tolist()) == set(ov.nodes.tolist())
+    side = np.isin(whole.nodes, ov.nodes[on_plane])
+    np.testing.assert_allclose(whole.surface_depth_mm[side], 0.0, atol=1e-9)  # on B's side face, A's too
+
+
 def test_blocks_brought_close_without_touching_do_not_overlap(stacked):
     X = stacked.nodes_mm
     u = np.zeros_like(X)

@@ -14,6 +14,11 @@ curvature it is air: the body overlaps itself. The default ``SAME_PART_MM = 1.0`
 half the fPN's narrowest gap between chambers (2 mm), so the facing wall across a gap is always
 another part, while the tetrahedra around a node (those that share it, at distance 0) never are.
 
+*The surface* is the whole body's: of a half model (its reference nodes at y >= 0, the
+symmetry plane y = 0 part of its boundary) the faces on that plane are left out, as the mirror
+half lies beyond them; a node on the plane is measured to the other part's outer surface (its
+walls), not to the plane's own faces, which it touches by construction.
+
 Quadratic (10-node) cells are split into their 8 linear sub-tetrahedra on the corner and
 midside nodes (the deformed P2 shape to second order); the surface is the sub-tetrahedra's
 faces that belong to one of them only. A KD-tree on the sub-tetrahedra's deformed centroids
@@ -76,6 +81,16 @@ def boundary_triangles(tets: np.ndarray) -> np.ndarray:
     key = np.sort(faces, axis=1)
     _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
     return faces[first[counts == 1]]
+
+
+def outer_triangles(X: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """The boundary triangles of the whole body: of a half model (no reference node below y = 0)
+    those on its symmetry plane left out (module notes)."""
+    triangles = boundary_triangles(tets)
+    size = float(np.ptp(X, axis=0).max())
+    if X[:, 1].min() < -1e-9 * size:
+        return triangles  # a whole model
+    return triangles[~np.all(np.abs(X[triangles, 1]) <= 1e-9 * size, axis=1)]
 
 
 def point_triangle_distance(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
@@ -176,7 +191,7 @@ def measure_overlap(nodes_mm: np.ndarray, cells: np.ndarray, displacement_mm: np
     X = np.asarray(nodes_mm, float)
     x = X + np.asarray(displacement_mm, float).reshape(X.shape)
     tets = linear_tets(cells)
-    triangles = boundary_triangles(tets)
+    triangles = outer_triangles(X, tets)
     surface = np.unique(triangles)
     inside = _inside_other_part(X, x, tets, surface, same_part_mm)
     if not inside.size:
