@@ -426,6 +426,11 @@ def test_an_increment_whose_prediction_drives_the_blocks_together_is_shortened_b
     assert jump[0] == 1.0 and newton.stats.contact_shortenings == 6
     far = model.X + np.where(upper, [0.0, 0.0, 1.0], 0.0)
     assert model.contact.closest_gap(far) == contact().activation_mm  # no pair: the activation distance
+    # a crawling path's increment of a few units in the last place is solved as asked, never
+    # halved to nothing (it was, and the shortenings' count divided by zero)
+    late = State(0.33835765922240857, np.zeros(model.ndof), 0.0, None)
+    t_edge = 0.3383576592224087  # the first halving lands one place above late.t, the second on it
+    assert clear_of_contact(newton, late, t_edge, lambda t: down(0.5 if t > late.t else 0.0))[0] == t_edge
 
 
 def test_the_predictor_is_of_lower_order_where_contact_pairs_are_active():

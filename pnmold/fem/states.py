@@ -195,8 +195,10 @@ def clear_of_contact(newton: Newton, state: State, t_new: float,
         if touch.closest_gap(x0 + tried[0].reshape(-1, 3)) >= floor:
             newton.stats.contact_shortenings += int(round(math.log2((t_new - state.t) / (t_try - state.t))))
             return t_try, tried
-        t_try = state.t + 0.5 * (t_try - state.t)
-        tried = predict(t_try)
+        half = state.t + 0.5 * (t_try - state.t)
+        if half == state.t:  # an increment at rounding's edge (a crawling path): not halved to nothing
+            break
+        t_try, tried = half, predict(half)
     # no shorter increment clears it: the pair closes at once (it switched to another triangle,
     # or appeared deep), not along the prediction; the increment is solved as it was asked
     return t_new, pred
