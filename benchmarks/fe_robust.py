@@ -126,12 +126,14 @@ def run_case(case: dict, builds: str, mesh: tuple[float, float], contact: bool =
 
 def _overlap(run) -> dict:
     """The converged steps with a boundary node deeper than 0.05 mm inside another part of the body,
-    and the deepest (:mod:`pnmold.fem.overlap`, as the overlap acceptance measures it)."""
+    and the deepest (:mod:`pnmold.fem.overlap`, as the overlap acceptance measures it; another part
+    beyond under half of a gap narrower than 2 mm, :func:`~pnmold.fem.overlap.same_part_for`)."""
     from pnmold.export.p2 import quadratic_mesh
-    from pnmold.fem.overlap import OVERLAP_DEPTH_MM, measure_overlap
+    from pnmold.fem.overlap import OVERLAP_DEPTH_MM, measure_overlap, same_part_for
 
     q = quadratic_mesh(run.mesh)
-    found = [measure_overlap(q.nodes_mm, q.cells, u) for u in run.solution.states]
+    same = same_part_for(run.design.gap_mm)
+    found = [measure_overlap(q.nodes_mm, q.cells, u, same_part_mm=same) for u in run.solution.states]
     return {"steps": len(found), "overlap_steps": sum(ov.count(OVERLAP_DEPTH_MM) > 0 for ov in found),
             "overlap_max_mm": round(max((ov.max_depth_mm for ov in found), default=0.0), 3)}
 

@@ -265,6 +265,19 @@ def block_model(options: SelfContact) -> Model:
     return Model(blocks(), Yeoh(), None, {"clamp": (0, 1, 2), "symmetry": (0, 1)}, self_contact=options)
 
 
+def test_walls_facing_across_a_gap_narrower_than_the_same_part_distance_still_pair():
+    """The blocks' facing faces are 0.05 mm apart, well within the default ``same_part_mm`` (1 mm),
+    yet they face each other across air (normals opposed, each squarely in front of the other):
+    they pair, at the gap's distance, and every pair joins the two blocks (a block's own face stays
+    one part with itself)."""
+    model = block_model(SelfContact())
+    s, master, feature = model.contact.pairs(model.X)
+    assert s.size > 0 and model.contact.closest_gap(model.X) == pytest.approx(GAP0)
+    upper = model.X[:, 2] > HEIGHT + GAP0 / 2
+    slave_upper = upper[model.contact.facets[s // 3]].all(axis=1)
+    assert np.all(slave_upper != upper[master].all(axis=1))  # each pair joins the two blocks
+
+
 def expected_gap(pressure: float, k: float, delta: float) -> float:
     """Where the penalty's pressure -phi'(g) equals ``pressure`` (written out, not solved)."""
     if pressure >= k * delta / 2:

@@ -9,7 +9,14 @@ import pytest
 from skfem import MeshTet
 
 from pnmold.export.p2 import quadratic_mesh
-from pnmold.fem.overlap import OVERLAP_DEPTH_MM, SAME_PART_MM, boundary_triangles, linear_tets, measure_overlap
+from pnmold.fem.overlap import (
+    OVERLAP_DEPTH_MM,
+    SAME_PART_MM,
+    boundary_triangles,
+    linear_tets,
+    measure_overlap,
+    same_part_for,
+)
 from pnmold.tetmesh import TetMesh
 
 GAP = 2.0  # the fPN's gap between chambers
@@ -83,6 +90,21 @@ def test_a_half_models_symmetry_plane_is_not_a_surface_its_nodes_are_measured_to
     assert set(whole.nodes.tolist()) == set(ov.nodes.tolist())
     side = np.isin(whole.nodes, ov.nodes[on_plane])
     np.testing.assert_allclose(whole.surface_depth_mm[side], 0.0, atol=1e-9)  # on B's side face, A's too
+
+
+def test_blocks_across_a_narrow_gap_are_measured_with_under_half_of_it():
+    """Blocks 0.8 mm apart pushed 0.1 mm into each other: with the default 1 mm the tetrahedra the
+    nodes entered (0.8 mm from them in the reference shape) are the same part and nothing is found;
+    with :func:`same_part_for` the gap's 0.36 mm, the overlap is found at its depth."""
+    narrow = quadratic_mesh(boxes((0.0, 0.0, 0.0), (0.0, 0.0, 1.8)))
+    X = narrow.nodes_mm
+    u = np.zeros_like(X)
+    u[X[:, 2] > 1.4, 2] = -(0.8 + 0.1)
+    assert same_part_for(0.8) == pytest.approx(0.36) and same_part_for(2.62) == SAME_PART_MM
+    assert same_part_for(0.0) == SAME_PART_MM  # an sPN: no gap
+    assert measure_overlap(X, narrow.cells, u).count() == 0
+    ov = measure_overlap(X, narrow.cells, u, same_part_mm=same_part_for(0.8))
+    assert ov.count() > 0 and ov.max_depth_mm == pytest.approx(0.1, abs=1e-9)
 
 
 def test_blocks_brought_close_without_touching_do_not_overlap(stacked):

@@ -15,8 +15,9 @@ two facing surfaces pressed together carry the penalty ``penalty_mpa_per_mm`` on
 **Pairs, found on the deformed surface at every evaluation** (each Newton iterate and each
 trial of its line search, so residual, tangent and energy at one state use the same pairs):
 a KD-tree of the masters' deformed centroids gives each slave its candidates, those of *the
-same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:`.overlap`;
-found once) dropped, into a list kept while the nodes move less than its margin
+same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:`.overlap`,
+unless the two face each other squarely across air, as the walls of a gap narrower than twice
+that do; found once) dropped, into a list kept while the nodes move less than its margin
 (:meth:`ContactSurface._candidates`: the same pairs as a fresh search, at a fraction of its cost);
 of the candidates a triangle's reach holds, the triangle nearest the slave is its pair (of
 triangles as near, around the edge or vertex nearest it, the one it faces most squarely) where
@@ -64,6 +65,10 @@ _RADIUS_SPREAD = 3.0
 #: fPN build's curve to the tip meeting the base (one run each, on a machine shared with other FE work):
 #: 0.25 / 0.5 / 1 / 2 mm took 159 / 136 / 107 / 81 searches and 23.3 / 24.8 / 26.5 / 30.4 s of assembly
 CANDIDATE_SKIN_MM = 0.5
+#: a point and a triangle closer than ``same_part_mm`` in the reference shape are still two parts
+#: when they face each other across air this squarely (:meth:`ContactSurface._same_part`; assumed:
+#: cos 26 deg, the walls of a narrow gap face each other at 0 deg, a concave corner's faces at 90)
+FACING_ACROSS = 0.9
 
 
 def _p2_shape(L: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +235,7 @@ class ContactSurface:
         jac = np.cross(np.einsum("qa,kai->kqi", dN[:, 0], Xf), np.einsum("qa,kai->kqi", dN[:, 1], Xf))
         #: reference area of each slave point (facet-major, 3 a facet)
         self.area = (np.linalg.norm(jac, axis=2) / 6).ravel()
-        self._same = self._same_part(X)
+        self._same = self._same_part(X, (jac / np.linalg.norm(jac, axis=2)[..., None]).reshape(-1, 3))
         #: how far a slave point moves at most per unit of its facet's largest node motion
         self._spread = float(np.abs(self.N).sum(axis=1).max())
         self._nodes = np.unique(self.facets)
@@ -242,15 +247,27 @@ class ContactSurface:
         """(3 K, 3) positions of the slave points with the nodes at ``x``."""
         return np.einsum("qa,kai->kqi", self.N, x[self.facets]).reshape(-1, 3)
 
-    def _same_part(self, X: np.ndarray) -> np.ndarray:
-        """Sorted keys ``point * n_triangles + triangle`` of the pairs within ``same_part_mm``."""
+    def _same_part(self, X: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """Sorted keys ``point * n_triangles + triangle`` of the pairs within ``same_part_mm``, less
+        those facing each other across air: the point squarely in front of the triangle (its plane
+        gap at least :data:`FACING_ACROSS` of its distance) and its own outward normal (``normals``,
+        per slave point) turned back at the triangle (cosine at most -:data:`FACING_ACROSS`), as the
+        walls of a gap narrower than twice ``same_part_mm`` face each other; a concave corner's two
+        faces (normals at right angles) and a face's own neighbours (in its plane) stay one part."""
         p = X[self.triangles]
         centroid = p.mean(axis=1)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1)
         points = self.points(X)
         s, t, _ = _near(points, centroid, self.options.same_part_mm + radius)
-        close = point_triangle_distance(points[s], p[t]) <= self.options.same_part_mm
-        return np.unique(s[close] * len(self.triangles) + t[close])
+        dist = point_triangle_distance(points[s], p[t])
+        close = dist <= self.options.same_part_mm
+        s, t, dist = s[close], t[close], dist[close]
+        normal = np.cross(p[t, 1] - p[t, 0], p[t, 2] - p[t, 0])
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        plane = np.einsum("ij,ij->i", points[s] - centroid[t], normal)
+        across = ((plane >= FACING_ACROSS * np.maximum(dist, 1e-12)) & (dist > 0)
+                  & (np.einsum("ij,ij->i", normals[s], normal) <= -FACING_ACROSS))
+        return np.unique(s[~across] * len(self.triangles) + t[~across])
 
     def pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each paired slave point, its master triangle's 3 nodes (turned, not flipped, to start

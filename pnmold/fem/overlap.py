@@ -11,8 +11,9 @@ reference shape no node lies inside any tetrahedron, so a node that ends up insi
 reference distance is ``d`` has closed a distance ``d`` of air or crushed ``d`` of rubber; the
 FE keeps every element's volume positive, so for ``d`` above the size of an element's own
 curvature it is air: the body overlaps itself. The default ``SAME_PART_MM = 1.0`` is assumed:
-half the fPN's narrowest gap between chambers (2 mm), so the facing wall across a gap is always
-another part, while the tetrahedra around a node (those that share it, at distance 0) never are.
+half the fPN's gap between chambers (2 mm), so the facing wall across a gap is always another part,
+while the tetrahedra around a node (those that share it, at distance 0) never are; a design with a
+narrower gap is measured with under half of its gap (:func:`same_part_for`).
 
 *The surface* is the whole body's: of a half model (its reference nodes at y >= 0, the
 symmetry plane y = 0 part of its boundary) the faces on that plane are left out, as the mirror
@@ -34,6 +35,8 @@ from scipy.spatial import cKDTree
 
 #: reference distance (mm) beyond which a tetrahedron is another part of the body (module notes)
 SAME_PART_MM = 1.0
+#: the share of a narrow gap within which points are still one part (:func:`same_part_for`)
+NARROW_GAP_SHARE = 0.45
 #: depth (mm) from which a node counts as overlapping (the acceptance's threshold)
 OVERLAP_DEPTH_MM = 0.05
 #: the 8 linear sub-tetrahedra of a 10-node cell in the VTK / Abaqus C3D10 node order (corners
@@ -62,6 +65,13 @@ class Overlap:
     @property
     def max_depth_mm(self) -> float:
         return float(self.depth_mm.max()) if self.depth_mm.size else 0.0
+
+
+def same_part_for(gap_mm: float) -> float:
+    """The same-part distance for a body whose chambers stand ``gap_mm`` apart (0: none, an sPN):
+    :data:`SAME_PART_MM`, or under half the gap (:data:`NARROW_GAP_SHARE` of it) where the gap is
+    narrower than twice that, so the wall facing a node across the gap is always another part."""
+    return min(SAME_PART_MM, NARROW_GAP_SHARE * gap_mm) if gap_mm > 0 else SAME_PART_MM
 
 
 def linear_tets(cells: np.ndarray) -> np.ndarray:
