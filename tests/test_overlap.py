@@ -100,7 +100,7 @@ def test_blocks_across_a_narrow_gap_are_measured_with_under_half_of_it():
     X = narrow.nodes_mm
     u = np.zeros_like(X)
     u[X[:, 2] > 1.4, 2] = -(0.8 + 0.1)
-    assert same_part_for(0.8) == pytest.approx(0.36) and same_part_for(2.62) == SAME_PART_MM
+    assert same_part_for(0.8) == pytest.approx(0.36) and same_part_for(2.0) == same_part_for(2.62) == SAME_PART_MM
     assert same_part_for(0.0) == SAME_PART_MM  # an sPN: no gap
     assert measure_overlap(X, narrow.cells, u).count() == 0
     ov = measure_overlap(X, narrow.cells, u, same_part_mm=same_part_for(0.8))

@@ -71,7 +71,7 @@ def same_part_for(gap_mm: float) -> float:
     """The same-part distance for a body whose chambers stand ``gap_mm`` apart (0: none, an sPN):
     :data:`SAME_PART_MM`, or under half the gap (:data:`NARROW_GAP_SHARE` of it) where the gap is
     narrower than twice that, so the wall facing a node across the gap is always another part."""
-    return min(SAME_PART_MM, NARROW_GAP_SHARE * gap_mm) if gap_mm > 0 else SAME_PART_MM
+    return NARROW_GAP_SHARE * gap_mm if 0 < gap_mm < 2 * SAME_PART_MM else SAME_PART_MM
 
 
 def linear_tets(cells: np.ndarray) -> np.ndarray:
