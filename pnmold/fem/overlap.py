@@ -35,7 +35,8 @@ from scipy.spatial import cKDTree
 
 #: reference distance (mm) beyond which a tetrahedron is another part of the body (module notes)
 SAME_PART_MM = 1.0
-#: the share of a narrow gap within which points are still one part (:func:`same_part_for`)
+#: the share of a narrow gap within which points are still one part (:func:`same_part_for`; assumed:
+#: under half, so the wall across the gap is always another part, with a margin for its curvature)
 NARROW_GAP_SHARE = 0.45
 #: depth (mm) from which a node counts as overlapping (the acceptance's threshold)
 OVERLAP_DEPTH_MM = 0.05
