@@ -17,8 +17,9 @@ are made that way, through the public verbs with their defaults:
   concealed effect in ``--effects`` (a concealed ``gravity`` is a weight other than the declared: a tip
   resting on a support, 0-0.6 g), ``--cycles 3`` and a ramp rate, as a bending and a P-V recording,
   with the verb's own noise options. The FE makes them (``--model fe``) where the effect is in the FE
-  (gravity, strain stiffening, layer compliance, and every null case), else the reduced model of the
-  batch (its FE characterisation). The verb's metadata naming the batch, the model and the effects is
+  (gravity, strain stiffening, layer compliance, self-contact as ``--self-contact`` on a design with gaps
+  between its chambers, and every null case), else the reduced model of the batch (its FE
+  characterisation). The verb's metadata naming the batch, the model and the effects is
   stripped, and so is the bend angle (a tip tracked by a camera): the recordings say only their kind,
   orientation and ramp rate.
 - **Diagnosis**: ``pnmold diagnose DESIGN bending.csv pv.csv`` as a user runs it (a subprocess).
@@ -47,7 +48,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import multiprocessing
 import os
 import subprocess
@@ -74,17 +74,17 @@ DESIGNS = ("fpn", "spn", "fig-s2a-h5", "fig-s2b-n7", "fig-s2c-w2")
 MAGNITUDES = {
     "gravity": (0.0, 0.6),
     "strain_stiffening": (0.01, 0.06),
-    "self_contact": (2.0, 15.0),
+    "self_contact": (1.0, 1.0),  # the FE's own contact (--self-contact): on or off
     "layer_compliance": (0.02, 0.3),
     "mullins": (0.1, 0.4),
     "viscoelasticity": (0.15, 0.5),
 }
-IN_FE = ("gravity", "strain_stiffening", "layer_compliance")
+IN_FE = ("gravity", "strain_stiffening", "layer_compliance", "self_contact")
 #: a batch's modulus: every Yeoh constant x 1 +- this (one batch stiffer, the next softer); its density
 #: x 1 +- up to DENSITY_BATCH (assumed: platinum silicones batch to batch, trapped air or pigment)
 BATCH = (0.05, 0.12)
 DENSITY_BATCH = 0.04
-#: the ramps' top as a share of the batch's full-bend pressure (the FE has no self-contact: below full bend)
+#: the ramps' top as a share of the batch's full-bend pressure (below full bend and the tip meeting the base)
 P_MAX_SHARE = 0.75
 #: a design that never bends fully (the sPN) is ramped to this share of its FE characterisation's last
 #: converged pressure, times P_MAX_SHARE
@@ -211,18 +211,18 @@ def draw_cases(per_effect: int, n_null: int, seed: int, source: str, batches: di
     cases = []
     for i, effect in enumerate(plan):
         name = str(rng.choice(designs))
-        if effect == "self_contact" and math.isinf(_contact_pressure(load_design(name))):
-            # an sPN-like design has no gap between chambers: no contact; the first design that has one
-            name = next((d for d in designs if math.isfinite(_contact_pressure(load_design(d)))), "fpn")
+        if effect == "self_contact" and load_design(name).gap_mm <= 0:
+            # an sPN-like design has no gap between chambers: no walls to meet; the first design that has one
+            name = next((d for d in designs if load_design(d).gap_mm > 0), "fpn")
         batch = str(rng.choice(batches[name]))
         char = characterise(load_design(batch))
         full = char.full_bend_pressure_kpa or NO_FULL_BEND_SHARE * char.max_pressure_kpa
         lo, hi = MAGNITUDES.get(effect, (0.0, 0.0))
         orient = str(rng.choice(ORIENTATIONS[:2] if effect == "gravity" else ORIENTATIONS))
         extras = {}
-        if effect == "self_contact":  # walls touch between 30% and 60% of the ramp's top
-            extras = {"self_contact.gap_scale": _gap_for(load_design(batch),
-                                                         float(rng.uniform(0.3, 0.6)) * P_MAX_SHARE * full)}
+        if effect == "self_contact":
+            rng.uniform(0.3, 0.6)  # the contact's onset the reduced model was once given: drawn still, so that
+            # a seed's other cases stay what they were
         if effect == "viscoelasticity":
             extras = {"viscoelasticity.tau_s": float(np.exp(rng.uniform(np.log(0.5), np.log(10.0))))}
         src = "fe" if source == "auto" and (effect is None or effect in IN_FE) else "rom"
@@ -230,26 +230,6 @@ def draw_cases(per_effect: int, n_null: int, seed: int, source: str, batches: di
                           float(rng.uniform(0.5, 4.0)), float(P_MAX_SHARE * full), float(rng.uniform(4.0, 12.0)),
                           src, int(rng.integers(1 << 30))))
     return cases
-
-
-def _gap_for(design, onset_kpa: float) -> float:
-    """The gap scale whose contact pressure is ``onset_kpa`` (bisection; it grows with the gap)."""
-    from pnmold.physics.rom import ReducedModel
-
-    rom = ReducedModel.for_design(design)
-    lo, hi = 0.25, 4.0
-    if rom.contact_pressure_kpa(lo) >= onset_kpa:
-        return lo
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if rom.contact_pressure_kpa(mid) < onset_kpa else (lo, mid)
-    return round(0.5 * (lo + hi), 4)
-
-
-def _contact_pressure(design) -> float:
-    from pnmold.physics.rom import ReducedModel
-
-    return ReducedModel.for_design(design).contact_pressure_kpa()
 
 
 # -- the noise ------------------------------------------------------------------------------------------
@@ -317,8 +297,8 @@ def visible(case: Case) -> Case:
     the diagnosis); raised toward the catalogue's bound, at most twice."""
     from pnmold.effects import EFFECTS
 
-    if not case.effect:
-        return case
+    if not case.effect or (case.effect == "self_contact" and case.source == "fe"):
+        return case  # the FE's self-contact is on or off: no magnitude to raise
     for _ in range(2):
         rel = signature(case)
         effect = EFFECTS[case.effect]
@@ -336,12 +316,14 @@ def simulate_argv(case: Case, kind: str, path: Path, noise: dict[str, float]) ->
     """``pnmold simulate`` of the case's batch as a lab's rig would record it (see the module docstring)."""
     step = case.p_max_kpa / (ROWS_PER_RAMP - 1)
     effects = {case.effect: case.value, **case.extras} if case.effect else {}
+    contact = case.source == "fe" and effects.pop("self_contact", 0.0) > 0  # the FE's own: a solve option
     argv = ["simulate", case.batch or case.design, "--model", case.source, "--kind", kind,
             "--pressures", f"0:{case.p_max_kpa!r}:{step!r}", "--cycles", str(CYCLES),
             "--rate-kpa-per-s", repr(case.rate_kpa_per_s), "--orientation", case.orientation,
             "--recording", str(path), "--seed", str(case.seed + (kind == "pv")), "-q"]
     if effects:
         argv += ["--effects", ",".join(f"{k}={v!r}" for k, v in effects.items())]
+    argv += ["--self-contact"] if contact else []
     argv += ["--noise-mm", repr(noise["mm"])] if kind == "bending" else ["--noise-ml", repr(noise["ml"])]
     return argv
 

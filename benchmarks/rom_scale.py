@@ -50,13 +50,15 @@ def batch_of(design, modulus: float, density: float):
                           density_g_per_ml=m.density_g_per_ml * density)
 
 
-def fe_steps(design, orientation: str, pressures: np.ndarray, effects: dict | None = None) -> list[dict]:
-    """The FE's tip and bend at ``pressures`` (the characterisation's mesh, Earth's gravity, ``effects``); none
-    where the body lost stability under its own weight before any pressure (its rest carries part of it)."""
+def fe_steps(design, orientation: str, pressures: np.ndarray, effects: dict | None = None,
+             options=None) -> list[dict]:
+    """The FE's tip and bend at ``pressures`` (the characterisation's mesh, Earth's gravity, ``effects``, the
+    solver's ``options``); none where the body lost stability under its own weight before any pressure (its
+    rest carries part of it)."""
     from pnmold.design_fe import run_fe
 
     sol = run_fe(design, size=DEFAULT_SIZE, orientation=orientation, effects=effects, pressures_kpa=list(pressures),
-                 keep_partial=True).solution
+                 options=options, keep_partial=True).solution
     if sol.rest_weight_g is not None:
         print(f"{design.name} {orientation}: {sol.reason}", flush=True)
         return []

@@ -89,18 +89,23 @@ CATALOGUE: tuple[Effect, ...] = (
                "pnmold library fits); up to 5x that assumed",
         models=("rom", "fe")),
     Effect(
-        "self_contact", "stiffness_ratio", "1", 0.0, (0.0, 20.0), ("bending", "force"),
+        "self_contact", "share", "1", 0.0, (0.0, 1.5), ("bending", "pv", "force"),
         "neighbouring chamber walls touching at large bend",
-        "a knee: above the contact pressure the bend stalls while the pressure still rises (bend rate "
-        "divided by 1 + value); the hinges stiffen, so gravity and the blocked force act through a stiffer "
-        "actuator; inert for sPN designs (no gap between chambers)",
-        extra=(("gap_scale", "1", 1.0, (0.25, 4.0)),),
-        rom="contact pressure p_c where the inside walls' bulge closes the gap: 2 delta(p) = gap_scale gap_mm + "
-            "theta_c z_mid, delta = 9 V_b / (8 A_wall) with V_b the chamber's volume gain less the wedge its "
-            "rotation opens (FE curve); above p_c the free rotation's increments and the compliance are "
-            "divided by 1 + value",
-        source="assumed, not yet read from the FE's opt-in self-contact (build --self-contact), which on the "
-               "fPN bends it further at the same pressure, not less; wall bulge as a clamped plate's parabolic cap",
+        "once the inside walls' bulges meet across the gaps they push the chambers apart: in the FE the fPN "
+        "then bends further at the same pressure (+2.6, +12.7, +24.6 deg at 10.2, 20.3, 30.5 kPa on the build's "
+        "mesh, benchmarks/contact.py) and its tip meets its base sooner; nothing below the pressure where the "
+        "walls first touch",
+        rom="the shape and the volume read the free law at the pressure where the nominal reaches the bend (and "
+            "the volume) of the FE's own free run with its self-contact on (the characterisation's variant, "
+            "pnmold.physics.characterise.self_contact_run), value of the way (1: the FE's contact as solved; "
+            "below 1 a contact that sets in later or pushes less, e.g. wider or stiffer gaps than designed); past "
+            "that run's end (its tip meets the base) out of reach; the hinges' compliance under the weight moved "
+            "value of the way to the one the FE's probes with self-contact identify, chambers up and hanging "
+            "chambers down (a weight that closes the gaps presses their walls together; without those probes, as "
+            "without contact)",
+        fe="SolveOptions(self_contact=SelfContact()): a frictionless penalty contact of the outer surface with "
+           "itself (pnmold.fem.contact); pnmold build --self-contact, pnmold simulate --model fe --self-contact",
+        source="the FE's own self-contact run; bounds assumed (0: no contact, 1.5: half again the FE's push)",
     ),
     Effect(
         "layer_compliance", "compliance_mm_per_n", "mm/N", 0.0, (0.0, 1.0), ("bending", "pv", "force"),

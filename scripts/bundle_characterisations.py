@@ -2,7 +2,8 @@
 
 Each template is characterised afresh on the default mesh and pressure limit (free run, gravity
 probe, variant runs, the on-demand probes: the blocked tip, the chambers-down compliance, both
-orientations' compliance with a compliant layer and the roll held on its side; one to a
+orientations' compliance with a compliant layer, the roll held on its side and the free run with
+self-contact; one to a
 few minutes of FE each on 2 cores) in a temporary cache; ``--probes-only`` adds the on-demand probes
 to the bundled file as it is (a minute or two); its numbers are rounded to 6 significant digits and
 the JSON written compact, under the cache's file name (design digest, mesh, pressure limit). Run it
@@ -51,7 +52,7 @@ def main(names: list[str]) -> None:
             os.environ["PNMOLD_CACHE"] = tmp
             ch.BUNDLED_DIR = bundled if probes_only else Path(tmp) / "none"  # afresh: not from the files written
             result = characterised_for(design, ["force"], ["chambers_up", "chambers_down", "horizontal"], layer=True,
-                                       progress=lambda stage: print(f"  {stage}", flush=True))
+                                       contact=True, progress=lambda stage: print(f"  {stage}", flush=True))
         doc = rounded(result.to_json())
         name_on_disk = ch.cache_path(design, ch.DEFAULT_SIZE, ch.DEFAULT_MAX_PRESSURE_KPA).name
         for old in (ROOT / "pnmold" / "data" / "characterisations").glob(f"{design.name}-*.json"):

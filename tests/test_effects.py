@@ -20,7 +20,7 @@ from pnmold.cli import main
 from pnmold.design import load_design
 from pnmold.design_fe import design_for_fe
 from pnmold.effects import EFFECTS, catalogue_json, check_effects
-from pnmold.errors import DesignError
+from pnmold.errors import DesignError, SolveError
 from pnmold.physics import Protocol, ReducedModel, characterisation_from_steps
 from tests.conftest import STEPS
 
@@ -90,13 +90,21 @@ def test_the_fe_carries_only_its_three():
 
 # -- value 0 is the baseline ---------------------------------------------------------------------
 
-EXTRAS = {"strain_stiffening": {"strain_stiffening.c30_mpa": 0.0}, "self_contact": {"self_contact.gap_scale": 0.5},
-          "mullins": {"mullins.exponent": 3.0}, "viscoelasticity": {"viscoelasticity.tau_s": 7.0}}
+EXTRAS = {"strain_stiffening": {"strain_stiffening.c30_mpa": 0.0}, "mullins": {"mullins.exponent": 3.0},
+          "viscoelasticity": {"viscoelasticity.tau_s": 7.0}}
+
+
+@pytest.fixture(scope="module")
+def fpn_bundled() -> ReducedModel:
+    """The fPN's reduced model on its bundled characterisation (with the FE's run with self-contact)."""
+    return ReducedModel.for_design(load_design("fpn"))
 
 
 @pytest.mark.parametrize("name", [n for n in SIX if n != "gravity"])
-def test_value_zero_reproduces_the_baseline(rom, name):
-    proto = Protocol.ramp("bending", 45, 3, cycles=3, rate_kpa_per_s=4, orientation="chambers_up")
+def test_value_zero_reproduces_the_baseline(request, name):
+    rom = request.getfixturevalue("fpn_bundled" if name == "self_contact" else "rom")
+    top = 36 if name == "self_contact" else 45  # within the FE's run with self-contact (to 38.8 kPa)
+    proto = Protocol.ramp("bending", top, 3, cycles=3, rate_kpa_per_s=4, orientation="chambers_up")
     base = rom.run(proto, {"gravity": 1.0})
     off = rom.run(proto, {"gravity": 1.0, name: 0.0, **EXTRAS.get(name, {})})
     for key in base:
@@ -145,25 +153,38 @@ def test_strain_stiffening_agrees_low_and_falls_short_high(rom):
     assert pv["volume_ml"][-1] < rom.run(Protocol.ramp("pv", 44, 2), OFF)["volume_ml"][-1]
 
 
-def test_self_contact_makes_a_knee_and_stalls_the_bend(rom):
-    pc = rom.contact_pressure_kpa()
-    assert 10 < pc < STEPS[-1]["pressure_kpa"]  # the fPN's walls meet before full bend
-    proto = Protocol.ramp("bending", 46, 1)
-    base, contact = rom.run(proto, OFF), rom.run(proto, {**OFF, "self_contact": 10.0})
-    below, above = proto.pressure_kpa < pc, proto.pressure_kpa > pc + 1
-    assert np.array_equal(base["bend_angle_deg"][below], contact["bend_angle_deg"][below])
-    rate_base = np.diff(base["bend_angle_deg"])[above[1:]]
-    rate_contact = np.diff(contact["bend_angle_deg"])[above[1:]]
-    assert np.all(rate_contact < 0.15 * rate_base)  # the knee: the bend rate drops 1/(1 + 10)
-    assert rom.contact_pressure_kpa(gap_scale=2.0) > pc  # a wider gap closes later
-    assert rom.contact_pressure_kpa(gap_scale=0.25) < pc
+def test_self_contact_is_the_fes_own_run_with_its_walls_kept_apart(fpn_bundled):
+    """Free (no gravity), value 1 is the FE's free run with self-contact (read off it within a degree and a
+    hundredth of a mL); below the pressure where its walls first touch nothing changes; above, the fPN bends
+    further at the same pressure (its walls push the chambers apart) and half the value does half of that."""
+    rom = fpn_bundled
+    run = rom.characterisation.variant_runs("self_contact")[0]
+    assert run["stop"] == "tip_meets_base"  # the free end meets the clamp: the run's own end
+    p = run["pressure_kpa"][1:]
+    free = Protocol("bending", p, "none")
+    base, touch, half = (rom.run(free, {"self_contact": v}) for v in (0.0, 1.0, 0.5))
+    assert np.abs(touch["bend_angle_deg"] - run["bend_angle_deg"][1:]).max() < 1.0
+    assert np.abs(touch["cavity_volume_ml"] - run["cavity_volume_ml"][1:]).max() < 0.01
+    more = touch["bend_angle_deg"] - base["bend_angle_deg"]
+    low = p < 5.0
+    assert low.sum() >= 3 and np.abs(more[low]).max() < 0.05
+    assert more[(p > 15) & (p < 35)].min() > 10.0  # degrees
+    extra = half["bend_angle_deg"] - base["bend_angle_deg"]
+    assert np.all((extra[~low] > 0.3 * more[~low]) & (extra[~low] < 0.7 * more[~low]))
 
 
-def test_self_contact_is_inert_without_a_gap():
-    spn = load_design("spn")
-    model = ReducedModel(spn, characterisation_from_steps(STEPS, spn))
-    proto = Protocol.ramp("bending", 40, 4)
-    assert np.array_equal(model.run(proto, {"self_contact": 10.0})["tip_x_mm"], model.run(proto)["tip_x_mm"])
+def test_past_the_end_of_the_fes_run_with_self_contact_is_out_of_reach(fpn_bundled, rom):
+    """The law is not read past where the FE's run with self-contact ended (its tip met the base), and a
+    model whose characterisation lacks that run refuses the effect rather than make one up."""
+    end = fpn_bundled.contact[1]
+    proto = Protocol("bending", np.array([0.5 * end, 1.1 * end]), "none")
+    out = fpn_bundled.run(proto, {"self_contact": 1.0}, partial=True)
+    assert out["pressure_excess"][0] == 0 and out["pressure_excess"][1] == pytest.approx(1 - 1 / 1.1)
+    with pytest.raises(SolveError, match="self-contact"):
+        fpn_bundled.run(proto, {"self_contact": 1.0})
+    assert np.isfinite(fpn_bundled.run(proto, partial=True)["bend_angle_deg"]).all()
+    with pytest.raises(SolveError, match="self_contact_run"):
+        rom.run(proto, {"self_contact": 1.0})
 
 
 def test_layer_compliance_more_bend_per_volume_on_the_same_path(rom):

@@ -56,10 +56,10 @@ STARTS = (0.03, 0.15, 0.4, 0.8)
 #: extra parameters fitted besides an effect's main one (the others stay at their catalogue
 #: defaults: Yeoh C30 is nearly collinear with C20 on a bending curve, and the Mullins
 #: exponent only shapes the reloading branch)
-FIT_EXTRAS = {"viscoelasticity": ("tau_s",), "self_contact": ("gap_scale",)}
+FIT_EXTRAS = {"viscoelasticity": ("tau_s",)}
 #: start values of those extras (the misfit is flat in an effect's strength until its onset
 #: or time scale is near the data's)
-EXTRA_STARTS = {"viscoelasticity.tau_s": (0.3, 2.0, 12.0), "self_contact.gap_scale": (0.25, 0.3, 0.6, 1.0, 2.0)}
+EXTRA_STARTS = {"viscoelasticity.tau_s": (0.3, 2.0, 12.0)}
 #: a main parameter that stands in for an effect's own (``main`` of :func:`decide`): strain stiffening read off
 #: the stiffening ladder by Yeoh C30 (recordings past the nominal's pressure maximum, see ``ladder_parameter``)
 LADDER_KEY = LADDER_EFFECT

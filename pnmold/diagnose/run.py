@@ -38,7 +38,8 @@ def diagnose_recordings(design: Design, paths: Sequence[str | Path], *, seed: in
     uncertain = check_uncertain(design, uncertain or {})
     force = any(r.kind == "force" for r in recordings)  # the model's blocked tip matched to the FE's
     c = characterised_for(design, [r.kind for r in recordings], [r.orientation for r in recordings if r.kind != "step"],
-                          layer=True, progress=progress)  # a compliant layer is among the effects tried
+                          layer=True, contact=any(r.kind != "step" for r in recordings),  # both effects tried
+                          progress=progress)
     rest, recordings = check_rest(recordings, diagnosis_forward(design, recordings), design.free_length_mm)
     reach = Reach(c.max_pressure_kpa, c.full_bend_pressure_kpa, c.end_reason, c.how_ended)
     floor = None

@@ -21,7 +21,8 @@ from pnmold.physics.identify import chamber_bounds_mm
 FORMAT = "pnmold.characterisation/1"
 CURVES = ("pressure_kpa", "bend_angle_deg", "tip_x_mm", "tip_z_mm", "cavity_volume_ml", "max_principal_stretch")
 ROD = ("rod_x_mm", "rod_angle_rad", "rod_length_mm", "compliance_rad_per_n_mm", "compliance_down_rad_per_n_mm",
-       "compliance_layer_rad_per_n_mm", "compliance_down_layer_rad_per_n_mm", "roll_compliance_rad_per_n_mm")
+       "compliance_layer_rad_per_n_mm", "compliance_down_layer_rad_per_n_mm", "roll_compliance_rad_per_n_mm",
+       "compliance_contact_rad_per_n_mm", "compliance_down_contact_rad_per_n_mm")
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +74,10 @@ class Characterisation:
     compliance_layer_rad_per_n_mm: np.ndarray | None = None
     compliance_down_layer_rad_per_n_mm: np.ndarray | None = None
     probe_layer_mm_per_n: float = 0.0
+    #: the chambers-up and chambers-down compliances with the FE's self-contact on (the ``self_contact`` effect),
+    #: from a free run and probes with it (:func:`pnmold.physics.probes.contact_probe`); None until asked for
+    compliance_contact_rad_per_n_mm: np.ndarray | None = None
+    compliance_down_contact_rad_per_n_mm: np.ndarray | None = None
     #: held on its side: each rod edge's torsional compliance (K,) from the FE of the whole body at
     #: ``probe_roll_gravity_g`` horizontal, at rest, and that probe's rest state and section rolls
     #: (:func:`pnmold.physics.probes.roll_probe`, :mod:`pnmold.physics.roll`); None until asked for
@@ -84,7 +89,8 @@ class Characterisation:
     #: None until that probe ran (an older characterisation: the probe runs again)
     roll_stiffening_per_kpa: float | None = None
     #: on-demand probes tried that did not serve (``down``, ``layer chambers_up``, ``layer chambers_down``,
-    #: ``roll``) -> why: not tried again (the model keeps what it has without them)
+    #: ``contact chambers_up``, ``contact chambers_down``, ``roll``) -> why: not tried again (the model keeps
+    #: what it has without them)
     probes_failed: dict = field(default_factory=dict)
 
     def variant_runs(self, effect: str) -> list[dict[str, np.ndarray]]:

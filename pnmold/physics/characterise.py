@@ -102,6 +102,9 @@ VARIANT_FORMAT = 2  # at the free run's pressures; older runs are re-done
 #: the C30 that carries the ribbed segment of the worked example to its 72 degrees)
 LADDER_C30_PER_C10 = (0.001, 0.0025, 0.006)
 LADDER_EFFECT = "strain_stiffening.c30_mpa"
+#: the variant run with the FE's frictionless self-contact (:class:`pnmold.fem.SelfContact`, its defaults) on
+#: (:func:`self_contact_run`): what the reduced model's ``self_contact`` reads
+CONTACT_KEY = "self_contact=1"
 #: the blocked-tip probe's pressure, a share of the free run's last (assumed: the FE's blocked force of the
 #: ribbed segment per kPa was 0.0069 N at 2 kPa and 0.0076 N at 5 kPa of its 17.5, so a twentieth is linear)
 BLOCKED_PROBE_SHARE = 0.05
@@ -251,6 +254,24 @@ def variant_keys() -> list[str]:
     return [f"{name}={value:g}" for name, values in VARIANTS.items() for value in values]
 
 
+def self_contact_run(design: Design, *, size: MeshSize | None = None,
+                     max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+                     progress: Callable[[str], None] | None = None) -> Characterisation:
+    """The characterisation with the free run (no gravity) solved again with the FE's self-contact on
+    (:data:`CONTACT_KEY`), at the free run's pressures, to its own end (full bend, the tip meeting the
+    base or another named stop), kept among the variants (cached with the rest): the law the reduced
+    model's ``self_contact`` reads (:mod:`pnmold.physics.rom_effects`). A minute or two of FE, once."""
+    size = replace(size or DEFAULT_SIZE, half=True)
+    result = characterise(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
+    if result.variants.get(CONTACT_KEY, {}).get("format") == VARIANT_FORMAT or result.source != "fe":
+        return result
+    pressures = [float(p) for p in result.pressure_kpa[1:]]
+    result = _with_variants(result, _run_variants(design, size, [CONTACT_KEY], progress or (lambda stage: None),
+                                                  pressures_kpa=pressures))
+    write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
+    return result
+
+
 def uncertainty_runs(design: Design, uncertain: Mapping[str, float], *, size: MeshSize | None = None,
                      max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA, blocked: bool = False,
                      progress: Callable[[str], None] | None = None) -> Characterisation:
@@ -306,6 +327,7 @@ def _run_variants(design: Design, size: MeshSize, keys: Sequence[str], say: Call
     ``design:<field>=<value>`` key solves the design with that dimension moved up by the value instead,
     on a mesh of its own (:func:`uncertainty_runs`)."""
     from pnmold.design_fe import run_fe
+    from pnmold.fem import SelfContact, SolveOptions
 
     out, first = {}, None
     for key in keys:
@@ -315,8 +337,10 @@ def _run_variants(design: Design, size: MeshSize, keys: Sequence[str], say: Call
         say(f"{design.name}: free bending with {f'{field} + {value:g}' if field else f'{name} = {value:g}'} "
             "(FE, no gravity)")
         t0 = time.perf_counter()
-        run = run_fe(solved, orientation=NO_GRAVITY, effects=None if field else {name: value},
+        contact = key == CONTACT_KEY  # a solve option, not a change of the material or the layer
+        run = run_fe(solved, orientation=NO_GRAVITY, effects=None if field or contact else {name: value},
                      pressures_kpa=pressures_kpa, max_pressure_kpa=max_pressure_kpa, size=size,
+                     options=SolveOptions(self_contact=SelfContact()) if contact else None,
                      mesh_of=None if field else first, keep_partial=True)
         first = first or (None if field else run)
         steps = [s.as_dict() for s in run.solution.steps]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -28,6 +28,7 @@ from pnmold.physics.characterise import (
     blocked_force_probe,
     cache_path,
     characterise,
+    self_contact_run,
 )
 from pnmold.physics.identify import bottom_line, identify_compliance
 from pnmold.tetmesh import MeshSize
@@ -44,12 +45,14 @@ LAYER_PROBE_MM_PER_N = 0.15
 
 
 def characterised_for(design: Design, kinds: Sequence[str], orientations: Sequence[str], *, layer: bool = False,
-                      size: MeshSize | None = None, max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+                      contact: bool = False, size: MeshSize | None = None,
+                      max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
                       progress: Callable[[str], None] | None = None) -> Characterisation:
     """The characterisation with the probes a use of it needs: the blocked tip for a blocked force
     (:func:`blocked_force_probe`), the opening compliance for a test hanging chambers down
     (:func:`downward_probe`), with ``layer`` (a compliant layer to be modelled) the compliance with it under
-    the orientations' weights (:func:`layer_probe`); each FE once, cached."""
+    the orientations' weights (:func:`layer_probe`), with ``contact`` (self-contact to be modelled) the free run
+    with the FE's self-contact on (:func:`self_contact_run`); each FE once, cached."""
     kw = {"size": size, "max_pressure_kpa": max_pressure_kpa, "progress": progress}
     result = characterise(design, **kw)
     if "force" in kinds:
@@ -60,6 +63,9 @@ def characterised_for(design: Design, kinds: Sequence[str], orientations: Sequen
         result = layer_probe(design, orientations, **kw)
     if "horizontal" in orientations:
         result = roll_probe(design, **kw)
+    if contact:
+        self_contact_run(design, **kw)
+        result = contact_probe(design, [o for o in orientations if o in ("chambers_up", "chambers_down")], **kw)
     return result
 
 
@@ -180,42 +186,70 @@ def layer_probe(design: Design, orientations: Sequence[str], *, size: MeshSize |
     down (``compliance_down_layer_rad_per_n_mm``, at :data:`DOWN_PROBE_G`). A free run with the layer (its
     shape, which the probes' extra rotations are measured from) and a probe per orientation: FE, a minute
     or three, once, cached."""
+    c = LAYER_PROBE_MM_PER_N
+    return _probed(design, orientations, "layer", f"layer_compliance = {c:g} mm/N", size, max_pressure_kpa,
+                   progress, effects={"layer_compliance": c}, extra={"probe_layer_mm_per_n": c})
+
+
+def contact_probe(design: Design, orientations: Sequence[str], *, size: MeshSize | None = None,
+                  max_pressure_kpa: float = DEFAULT_MAX_PRESSURE_KPA,
+                  progress: Callable[[str], None] | None = None) -> Characterisation:
+    """The characterisation with the hinges' compliance when the FE's self-contact is on (the ``self_contact``
+    effect), for the weights of ``orientations``: chambers up (``compliance_contact_rad_per_n_mm``, at
+    :data:`PROBE_G`) and chambers down (``compliance_down_contact_rad_per_n_mm``, at :data:`DOWN_PROBE_G`).
+    Why: a weight that closes the gaps presses their walls together (hanging chambers down the fPN at rest
+    bends 46 degrees with contact, 56 without, and goes on past the pressure where it snaps without), which
+    the free run with contact cannot show. A free run with contact and a probe per orientation: FE, minutes,
+    once, cached."""
+    from pnmold.fem import SelfContact, SolveOptions
+
+    return _probed(design, orientations, "contact", "self-contact", size, max_pressure_kpa, progress,
+                   options=SolveOptions(self_contact=SelfContact()))
+
+
+def _probed(design: Design, orientations: Sequence[str], label: str, what: str, size: MeshSize | None,
+            max_pressure_kpa: float, progress: Callable[[str], None] | None, *,
+            effects: Mapping[str, float] | None = None, options=None, extra: Mapping | None = None
+            ) -> Characterisation:
+    """The characterisation with the compliances ``compliance_<label>_rad_per_n_mm`` (chambers up) and
+    ``compliance_down_<label>_rad_per_n_mm`` (chambers down) that ``orientations`` need and it lacks: a free
+    run (no gravity) at the free run's pressures with ``effects`` and the solver's ``options``, and a gravity
+    probe with them per orientation, each identified over the free run's shape (:func:`_probe_compliance`);
+    ``extra`` fields kept with them; a probe that does not serve noted (``<label> <orientation>``)."""
     from pnmold.design_fe import run_fe
 
     size = replace(size or DEFAULT_SIZE, half=True)
     kw = {"size": size, "max_pressure_kpa": max_pressure_kpa, "progress": progress}
-    down = "chambers_down" in orientations
-    result = downward_probe(design, **kw) if down else characterise(design, **kw)
-    wanted = {o: g for o, g, have in (("chambers_up", PROBE_G, result.compliance_layer_rad_per_n_mm),
-                                      ("chambers_down", -DOWN_PROBE_G, result.compliance_down_layer_rad_per_n_mm))
-              if o in orientations and have is None and f"layer {o}" not in result.probes_failed}
+    result = downward_probe(design, **kw) if "chambers_down" in orientations else characterise(design, **kw)
+    fields = {"chambers_up": (f"compliance_{label}_rad_per_n_mm", PROBE_G),
+              "chambers_down": (f"compliance_down_{label}_rad_per_n_mm", -DOWN_PROBE_G)}
+    wanted = {o: g for o, (name, g) in fields.items()
+              if o in orientations and getattr(result, name) is None and f"{label} {o}" not in result.probes_failed}
     if not wanted or result.source != "fe" or not result.has_rod:
         return result
-    c, say = LAYER_PROBE_MM_PER_N, progress or (lambda stage: None)
-    say(f"{design.name}: compliance probes with layer_compliance = {c:g} mm/N (FE: free, "
-        f"{', '.join(wanted).replace('_', ' ')})")
+    (progress or (lambda stage: None))(f"{design.name}: compliance probes with {what} (FE: free, "
+                                       f"{', '.join(wanted).replace('_', ' ')})")
     t0 = time.perf_counter()
     pressures = [float(p) for p in result.pressure_kpa[1:]]
-    free = run_fe(design, orientation=NO_GRAVITY, effects={"layer_compliance": c}, pressures_kpa=pressures,
-                  size=size, keep_partial=True)
+    free = run_fe(design, orientation=NO_GRAVITY, effects=effects, pressures_kpa=pressures, size=size,
+                  options=options, keep_partial=True)
     if len(free.solution.steps) < 2:
-        return _failed(design, result, [f"layer {o}" for o in wanted], free.solution.reason or "no step",
+        return _failed(design, result, [f"{label} {o}" for o in wanted], free.solution.reason or "no step",
                        size, max_pressure_kpa)
     _, free_angle, _ = bottom_line(free.mesh.nodes_mm, free.solution.shapes_mm)
-    rows = len(result.pressure_kpa)  # the layer's free angles, its last repeated past its end
+    rows = len(result.pressure_kpa)  # the free angles, the last repeated past the free run's end
     free_angle = np.vstack([free_angle, np.repeat(free_angle[-1:], max(rows - len(free_angle), 0), axis=0)])[:rows]
-    found = {}
+    found, failed = {}, {}
     for orientation, g in wanted.items():
-        probe = run_fe(design, orientation=orientation, effects={"gravity": abs(g), "layer_compliance": c},
-                       pressures_kpa=pressures, size=size, mesh_of=free, keep_partial=True)
-        found[orientation] = _probe_compliance(design, result, probe, free_angle, g, len(free.solution.steps))
-    failed = {f"layer {o}": why for o, why in found.items() if isinstance(why, str)}
-    found = {o: v for o, v in found.items() if not isinstance(v, str)}
-    up = found.get("chambers_up", result.compliance_layer_rad_per_n_mm)
-    down = found.get("chambers_down", result.compliance_down_layer_rad_per_n_mm)
-    result = replace(result, compliance_layer_rad_per_n_mm=up, compliance_down_layer_rad_per_n_mm=down,
-                     probe_layer_mm_per_n=c, probes_failed={**result.probes_failed, **failed},
-                     timings_s={**result.timings_s, "probe_layer": round(time.perf_counter() - t0, 2)})
+        probe = run_fe(design, orientation=orientation, effects={"gravity": abs(g), **(effects or {})},
+                       pressures_kpa=pressures, size=size, options=options, mesh_of=free, keep_partial=True)
+        got = _probe_compliance(design, result, probe, free_angle, g, len(free.solution.steps))
+        if isinstance(got, str):
+            failed[f"{label} {orientation}"] = got
+        else:
+            found[fields[orientation][0]] = got
+    result = replace(result, **found, **(extra or {}), probes_failed={**result.probes_failed, **failed},
+                     timings_s={**result.timings_s, f"probe_{label}": round(time.perf_counter() - t0, 2)})
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
 

@@ -14,8 +14,8 @@ Per protocol row, in this order (every step vectorised over the rows):
    row past it is out of reach (:meth:`ReducedModel.run`'s ``partial``), not extrapolated; the
    one exception is a ladder run that met a bifurcation, read 10 % past its end (assumed, said).
 3. **Free shape**: each bottom-line edge's angle and length at ``p_eff`` from the FE steps
-   (linear in pressure between steps); self-contact freezes the increments above its contact
-   pressure down to 1/(1 + value).
+   (linear in pressure between steps); self-contact makes the shape and the volume read the law
+   where the FE's own run with it reaches the same bend and volume (:mod:`.rom_effects`).
 4. **Loads** (:mod:`.rod`): weight (gravity x orientation, net of buoyancy submerged) and,
    for ``force``, a rigid plane at the tip's rest height z = 0 (supplement Fig. S6). The
    hinge compliance (FE probe) is divided by the same stiffness factors. Layer compliance
@@ -46,14 +46,14 @@ from pnmold.conventions import NO_GRAVITY
 from pnmold.design import Design
 from pnmold.errors import DesignError, RodError, SolveError
 from pnmold.physics.characterisation import Characterisation, distinct_steps
-from pnmold.physics.characterise import LADDER_EFFECT, characterise
+from pnmold.physics.characterise import CONTACT_KEY, LADDER_EFFECT, characterise
 from pnmold.physics.history import mullins_factor, viscoelastic_pressure
 from pnmold.physics.protocol import Protocol
 from pnmold.physics.reading import FRAME, at_volumes, read_bend, read_tip, read_volume
 from pnmold.physics.rod import RodLoads, RodState, solve_rod
 from pnmold.physics.roll import roll_axis_mm, rolled, stiffened, world
 from pnmold.physics.rom_effects import (
-    contact_onset,
+    contact_compliance,
     gravity_xz,
     layer_compliance,
     layer_softening,
@@ -107,10 +107,13 @@ class ReducedModel:
         x, self.tables = free_law(design, characterisation)
         self.x_mm = x
         self.loads: RodLoads = rod_loads(design, x)
-        self._onset: dict[float, float] = {}
         self.free_edge = x[:-1] >= design.clamp_end_mm - 1e-6
         #: effect -> {"bend", "volume", "length": Response} from the FE's variant runs
         self.responses = variant_responses(design, characterisation, self.tables)
+        runs = characterisation.variant_runs("self_contact")
+        #: the FE's run with self-contact: its response and where it ended (kPa), and why; None without one
+        self.contact = (self.responses["self_contact"], float(runs[0]["pressure_kpa"][-1]),
+                        characterisation.variants[CONTACT_KEY].get("reason") or "full bend") if runs else None
         #: the stiffening ladder (:func:`pnmold.physics.characterise.stiffening_ladder`): the nominal law and the
         #: FE's free runs with Yeoh C30 added, by C30; only where the free run ends at a pressure maximum
         self.ladder = ladder_of(characterisation)
@@ -140,7 +143,8 @@ class ReducedModel:
         run's final bend, so that limit point meets limit point; the bend's end is interpolated alike.
         The rod's shape is the nominal's at the same bend (its last shape scaled beyond), the hinge
         compliance the nominal's there; the curve ends at its pressure maximum. The model has no
-        variants: a C20 or a layer compliance on top takes the analytic forms (:mod:`.rom_effects`)."""
+        variants: a C20 or a layer compliance on top takes the analytic forms (:mod:`.rom_effects`), a
+        self-contact the nominal's response."""
         if not self.ladder:
             raise DesignError("strain_stiffening.c30_mpa", "this model has no stiffening ladder")
         if not 0.0 < c30_mpa <= self.ladder_top_mpa * (1.0 + 1e-9):
@@ -149,8 +153,10 @@ class ReducedModel:
         if c30_mpa not in self._laddered:
             if len(self._laddered) > 256:
                 self._laddered.clear()
-            self._laddered[c30_mpa] = ReducedModel(
+            model = ReducedModel(
                 self.design, ladder_characterisation(self.design, self.characterisation, self.ladder, c30_mpa))
+            model.contact = self.contact  # the nominal rubber's contact run, read on the stiffer law (assumed)
+            self._laddered[c30_mpa] = model
         return self._laddered[c30_mpa]
 
     def _blocked_factor(self) -> float:
@@ -166,11 +172,13 @@ class ReducedModel:
         return force / probe["force_n"] if force > 0 else 1.0
 
     # -- the terms (:mod:`.rom_effects`) -------------------------------------------------------------
-    def contact_pressure_kpa(self, gap_scale: float = 1.0) -> float:
-        """Pressure (on the free law) where neighbouring fPN walls' bulges close the gap; inf if never."""
-        if gap_scale not in self._onset:
-            self._onset[gap_scale] = contact_onset(self.design, self.characterisation, gap_scale)
-        return self._onset[gap_scale]
+    def _contact_law(self) -> tuple[dict, float, str]:
+        """:attr:`contact`; a :class:`SolveError` without the FE's run with self-contact."""
+        if self.contact is None:
+            raise SolveError(f"reduced model: self_contact is read from the FE's free run of {self.design.name} "
+                             "with its self-contact on, which this characterisation lacks "
+                             "(pnmold.physics.characterise.self_contact_run)")
+        return self.contact
 
     def layer_softening(self, compliance_mm_per_n: float, p_eff: Mapping[str, np.ndarray]
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -228,12 +236,23 @@ class ReducedModel:
         soft, soft_v, layer_stretch = self.layer_softening(layer, p_eff) if layer > 0 else (1.0, 1.0, 1.0)
         p_bend = p_eff["bend"] * soft  # the shape reads the free law further on
         p_vol = p_eff["volume"] * soft_v
-        excess = self._past_end(np.maximum(p_bend, p_vol))
+        touch = v("self_contact")
+        beyond_contact = np.zeros_like(p_bend)
+        if touch > 0:
+            p_bend, p_vol, contact_stretch, beyond_contact = self_contact(
+                *self._contact_law()[:2], touch, p_bend, p_vol)
+            layer_stretch = layer_stretch * contact_stretch
+        excess = np.maximum(self._past_end(np.maximum(p_bend, p_vol)), beyond_contact)
         past = excess > 0
         if past.any():  # out of reach: the state at the FE's last solved step, the nearest the model comes
             if not partial:
                 at = ", ".join(f"{q:.4g}" for q in p[past[:-1]][:5])
                 c = self.characterisation
+                if beyond_contact.any():
+                    _, end, why = self._contact_law()
+                    raise SolveError(f"reduced model: {self.design.name} at {at} kPa lies past the end of the FE's "
+                                     f"run with self-contact ({end:.4g} kPa on the design's rubber: {why}); the "
+                                     "law is not read past it")
                 if c.ends_at_pressure_maximum:
                     raise SolveError(f"reduced model: no equilibrium of {self.design.name} at {at} kPa: beyond the "
                                      f"FE's {c.reason}")
@@ -255,14 +274,11 @@ class ReducedModel:
         length = interp(t.p, t.length, law.p_bend) * np.where(self.free_edge, law.stretch[:, None], 1.0)
         down = opens_the_bend(orientation, kind) and t.compliance_down is not None
         compliance, soft = layer_compliance(self.design, t, down, v("layer_compliance"), law.soft)
+        compliance = contact_compliance(t, down, v("self_contact"), compliance)
         comp = interp(t.p, compliance, law.p_bend, extrapolate=False) * (soft / (law.stiff * law.ratio))[:, None]
         if kind == "force":
             comp = comp * self.blocked_compliance
         dhinge = np.diff(slope(t.p, t.angle, law.p_bend), axis=1, prepend=0.0) * law.soft[:, None]  # rad per kPa
-        k_contact = v("self_contact")
-        if k_contact > 0:
-            pc = self.contact_pressure_kpa(v("self_contact.gap_scale"))
-            self_contact(t, law.p_bend, pc, k_contact, angle, comp, dhinge)
         return angle, length, comp, dhinge
 
     def _equilibrium(self, protocol: Protocol, angle: np.ndarray, length: np.ndarray, comp: np.ndarray,

@@ -3,11 +3,11 @@
 Strain stiffening raises the pressure a deformation needs by a factor ``r`` (``p = p_eff r(p_eff)``),
 read from the FE's own run with stiffer rubber or, without it, from the Yeoh slopes; a layer
 compliance makes the shape (and the volume) read the law at a raised pressure, by the share of the
-bottom's stretching stiffness the layer loses; self-contact freezes the free rotation's increments
-above the pressure where neighbouring fPN walls' bulges close the gap; gravity is the orientation's
-in-plane part. The FE's variant runs become :class:`pnmold.physics.response.Response` factors
-(:func:`variant_responses`). Pure functions of the design and the free law (:mod:`.rom_law`); the
-model that applies them: docs/reduced-model.md, the frame of the gravity: docs/frame-and-units.md.
+bottom's stretching stiffness the layer loses; self-contact alike, by the FE's own run with its walls
+kept apart; gravity is the orientation's in-plane part. The FE's variant runs become
+:class:`pnmold.physics.response.Response` factors (:func:`variant_responses`). Pure functions of the
+design and the free law (:mod:`.rom_law`); the model that applies them: docs/reduced-model.md, the frame
+of the gravity: docs/frame-and-units.md.
 """
 
 from __future__ import annotations
@@ -46,6 +46,9 @@ def variant_responses(design: Design, c: Characterisation, tables: Tables) -> di
     stiff = c.variant_runs("strain_stiffening")
     if stiff:
         out["strain_stiffening"] = responses(base, [(r["value"], r) for r in stiff], softening=False)
+    contact = c.variant_runs("self_contact")
+    if contact:
+        out["self_contact"] = responses(base, [(r["value"], r) for r in contact], softening=True)
     return out
 
 
@@ -127,37 +130,30 @@ def stiffening(design: Design, tables: Tables, response: Mapping[str, Response] 
     return q, response["bend"](q["bend"], s), response["length"](q["bend"], s)
 
 
-def contact_onset(design: Design, c: Characterisation, gap_scale: float) -> float:
-    """Pressure where 2 x the inside walls' bulge equals the gap opened at mid-height (fPN only)."""
-    if design.gap_mm <= 0:
-        return float("inf")
-    ch = design.chambers
-    n = ch.count
-    z0 = design.top_z0_mm - design.bottom_z0_mm  # the top layer's base above the bottom layer's face
-    theta = np.radians(c.bend_angle_deg) / max(n - 1, 1)
-    dv = (c.cavity_volume_ml - c.cavity_volume_ml[0]) * 1000.0 / n
-    wedge = theta * ch.width_mm * ((z0 + ch.height_mm) ** 2 - z0 ** 2) / 2
-    bulge = 9.0 * np.maximum(dv - wedge, 0.0) / (8.0 * ch.width_mm * ch.height_mm)
-    margin = 2 * bulge - (gap_scale * design.gap_mm + theta * (z0 + ch.height_mm / 2))
-    hit = np.flatnonzero((margin[1:] >= 0) & (margin[:-1] < 0))
-    if not hit.size:
-        return float("inf")
-    i = hit[0]
-    p = c.pressure_kpa
-    return float(p[i] + (0.0 - margin[i]) / (margin[i + 1] - margin[i]) * (p[i + 1] - p[i]))
+def self_contact(response: Mapping[str, Response], end_kpa: float, share: float, p_bend: np.ndarray,
+                 p_vol: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Self-contact read from the FE's own free run with it on (:func:`variant_responses`): the shape and
+    the volume read the free law at the pressure where the nominal reaches the contact run's bend (and
+    volume), ``share`` of the way (1: the FE's contact as solved). Returns the two pressures, the free
+    part's stretch and, per row, the share of its pressure past the contact run's end ``end_kpa`` (its
+    tip met the base, or another named stop: out of reach there, as past any FE's last solved step;
+    the row is read at that end)."""
+    excess = np.where(p_bend > end_kpa * (1.0 + 1e-9), 1.0 - end_kpa / np.maximum(p_bend, end_kpa), 0.0)
+    at = np.minimum(p_bend, end_kpa)
+    at_v = np.minimum(p_vol, end_kpa)
+    return (at * response["bend"](at, share), at_v * response["volume"](at_v, share),
+            response["length"](at, share), excess)
 
 
-def self_contact(tables: Tables, p_bend: np.ndarray, pc: float, k_contact: float, angle: np.ndarray,
-                 comp: np.ndarray, dhinge: np.ndarray) -> None:
-    """Self-contact, in place: the rows whose shape reads the law above the contact pressure ``pc``
-    keep the free rotation's increments above it, the hinges' compliance and their rotation per kPa
-    divided by 1 + ``k_contact``."""
-    over = p_bend > pc
-    if np.isfinite(pc) and over.any():
-        at_pc = interp(tables.p, tables.angle, np.full(int(over.sum()), pc))
-        angle[over] = at_pc + (angle[over] - at_pc) / (1.0 + k_contact)
-        comp[over] /= 1.0 + k_contact
-        dhinge[over] /= 1.0 + k_contact
+def contact_compliance(tables: Tables, down: bool, share: float, compliance: np.ndarray) -> np.ndarray:
+    """The hinges' compliance table under the weight with self-contact: ``compliance`` (the one without it,
+    any layer's change applied) moved ``share`` of the way by the change the FE's probe of that orientation
+    with self-contact found (:func:`pnmold.physics.probes.contact_probe`): a weight that closes the gaps
+    presses their walls together. Without that probe, as it is (assumed: the free run's contact alone)."""
+    probed = tables.compliance_down_contact if down else tables.compliance_contact
+    if share <= 0 or probed is None:
+        return compliance
+    return compliance + share * (probed - (tables.compliance_down if down else tables.compliance))
 
 
 def gravity_xz(design: Design, orientation: str, g: float, density_scale: float = 1.0) -> tuple[float, float]:

@@ -90,4 +90,8 @@ def ladder_characterisation(design: Design, c: Characterisation, ladder: list[di
         compliance_layer_rad_per_n_mm=None if c.compliance_layer_rad_per_n_mm is None else rows(
             c.compliance_layer_rad_per_n_mm),
         compliance_down_layer_rad_per_n_mm=None if c.compliance_down_layer_rad_per_n_mm is None else rows(
-            c.compliance_down_layer_rad_per_n_mm), probe_layer_mm_per_n=c.probe_layer_mm_per_n)
+            c.compliance_down_layer_rad_per_n_mm), probe_layer_mm_per_n=c.probe_layer_mm_per_n,
+        compliance_contact_rad_per_n_mm=None if c.compliance_contact_rad_per_n_mm is None else rows(
+            c.compliance_contact_rad_per_n_mm),
+        compliance_down_contact_rad_per_n_mm=None if c.compliance_down_contact_rad_per_n_mm is None else rows(
+            c.compliance_down_contact_rad_per_n_mm))

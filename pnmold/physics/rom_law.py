@@ -35,6 +35,9 @@ class Tables:
     compliance_layer: np.ndarray | None = None
     compliance_down_layer: np.ndarray | None = None
     layer_mm_per_n: float = 0.0
+    #: (S, K) each with the FE's self-contact on (its probes); None: not probed
+    compliance_contact: np.ndarray | None = None
+    compliance_down_contact: np.ndarray | None = None
 
 
 def interp(p: np.ndarray, table: np.ndarray, x: np.ndarray, extrapolate: bool = True) -> np.ndarray:
@@ -71,10 +74,13 @@ def free_law(design: Design, c: Characterisation) -> tuple[np.ndarray, Tables]:
     probed = c.has_rod and c.probe_layer_mm_per_n > 0
     up_layer = c.compliance_layer_rad_per_n_mm if probed else None
     down_layer = c.compliance_down_layer_rad_per_n_mm if probed and down is not None else None
+    up_contact = c.compliance_contact_rad_per_n_mm if c.has_rod else None
+    down_contact = c.compliance_down_contact_rad_per_n_mm if c.has_rod and down is not None else None
     return x, Tables(c.pressure_kpa[k], angle[k], length[k], comp[k], offset[k], c.cavity_volume_ml[k],
                      c.max_principal_stretch[k], None if down is None else down[k],
                      None if up_layer is None else up_layer[k], None if down_layer is None else down_layer[k],
-                     c.probe_layer_mm_per_n)
+                     c.probe_layer_mm_per_n, None if up_contact is None else up_contact[k],
+                     None if down_contact is None else down_contact[k])
 
 
 def even_rod(design: Design, c: Characterisation):

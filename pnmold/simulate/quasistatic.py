@@ -157,10 +157,11 @@ def simulate(design: Design, request: SimulationRequest, *, json_path: str | Pat
     if request.model == "rom":
         from pnmold.physics.probes import characterised_for
 
-        layer = dict(request.effects).get("layer_compliance", 0) > 0
-        doc = simulate_rom(design, request, characterised_for(design, [request.kind], [request.orientation],
-                                                              layer=layer, size=_mesh_size(request, None, rom=True),
-                                                              progress=progress))
+        named = dict(request.effects)
+        c = characterised_for(design, [request.kind], [request.orientation],
+                              layer=named.get("layer_compliance", 0) > 0, contact=named.get("self_contact", 0) > 0,
+                              size=_mesh_size(request, None, rom=True), progress=progress)
+        doc = simulate_rom(design, request, c)
     else:
         doc = simulate_fe(design, request, vtu_dir=vtu_dir)
     written = [Path(doc["paraview"]["pvd"])] if vtu_dir is not None else []
@@ -268,6 +269,7 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
 
         characterisation = characterised_for(design, [request.kind], [request.orientation],
                                              layer=dict(request.effects).get("layer_compliance", 0) > 0,
+                                             contact=dict(request.effects).get("self_contact", 0) > 0,
                                              size=_mesh_size(request, rom=True))
     model = ReducedModel.for_design(design, characterisation)
     protocol = Protocol.from_pressures(request.kind, request.pressures_kpa, request.cycles,
