@@ -310,3 +310,15 @@ def test_simulate_refuses_bad_effects(cached_fpn, capsys, effects):
 def test_simulate_fe_refuses_rom_only_effects_before_any_cad(capsys):
     assert main(["simulate", "fpn", "--effects", "viscoelasticity=0.2", "--quiet"]) == 2
     assert "viscoelasticity" in capsys.readouterr().err
+
+
+def test_simulate_with_self_contact_stops_where_the_fes_run_with_it_ended(tmp_path):
+    """``pnmold simulate --effects self_contact=1`` on the fPN (its shipped run with self-contact: no FE) leaves
+    out the rows past where that run's tip met its base, and says so by that run's end, not the free run's."""
+    out = tmp_path / "sim.json"
+    assert main(["simulate", "fpn", "--model", "rom", "--effects", "self_contact=1", "--pressures", "0:45:5",
+                 "--json", str(out), "-q"]) == 0
+    doc = json.loads(out.read_text())
+    end = ReducedModel.for_design(load_design("fpn")).contact[1]
+    assert 35 < end < 45 and max(s["pressure_kpa"] for s in doc["steps"]) < end
+    assert "run with self-contact ended" in doc["reason"] and f"{end:.4g} kPa" in doc["reason"]

@@ -145,6 +145,8 @@ class Pardiso:
         self._solver.set_iparm(12, 0)  # CSR, not transposed
         dummy = np.zeros((matrix.shape[0], 1), order="F")
         if not same:
+            if self._pattern is not None:  # MKL keeps an earlier analysis's memory unless told to free it:
+                self._solver.free_memory(everything=True)  # 150 MB each on the fPN as self-contact grows the pattern
             self._pattern = (matrix.indptr.copy(), matrix.indices.copy())
             self._ia = (matrix.indptr + 1).astype(np.int32)
             self._ja = (matrix.indices + 1).astype(np.int32)

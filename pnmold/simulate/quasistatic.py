@@ -285,7 +285,7 @@ def simulate_rom(design: Design, request: SimulationRequest, characterisation=No
     steps = [s for s, beyond in zip(steps, past, strict=True) if not beyond]
     fb, reason = _full_bend(steps)
     if past.any():
-        reason = _past_end_reason(characterisation, past)
+        reason = _past_end_reason(characterisation, past, model.contact if effects.get("self_contact", 0) > 0 else None)
     curled = [s for s in steps if s["bend_angle_deg"] > FULL_BEND_DEG]
     if curled:  # the free end has met the clamped end: a physical stop, not a bend the rod may go on with
         steps = [s for s in steps if s["bend_angle_deg"] <= FULL_BEND_DEG]
@@ -338,9 +338,14 @@ def _rows(protocol, a: int, b: int):
                    cycle=cut(protocol.cycle), phase=cut(protocol.phase))
 
 
-def _past_end_reason(characterisation, past: np.ndarray) -> str:
-    """Why rows past the FE's last solved step are left out, by how the FE's curve ended."""
+def _past_end_reason(characterisation, past: np.ndarray, contact: tuple | None = None) -> str:
+    """Why rows past the FE's last solved step are left out, by how the FE's curve ended; with ``contact``
+    (:attr:`pnmold.physics.rom.ReducedModel.contact`: the ``self_contact`` effect on) its run's end when that
+    comes first."""
     rows = f"{int(past.sum())} of {len(past)} rows"
+    if contact is not None and contact[1] < characterisation.max_pressure_kpa:
+        return (f"{rows} lie past where the FE's run with self-contact ended ({contact[1]:.4g} kPa on the free law: "
+                f"{contact[2]}) and are left out (the law is not read past it)")
     if characterisation.ends_at_pressure_maximum:
         return f"{characterisation.reason}; {rows} lie past it and are left out (no equilibrium under pressure control)"
     return (f"{rows} lie past the last pressure the FE solved ({characterisation.max_pressure_kpa:.4g} kPa on the "
