@@ -241,11 +241,14 @@ def _protocol(case: Case, kind: str):
 
 
 def _rom_columns(case: Case, kind: str, effects: dict, scale: float) -> dict[str, np.ndarray]:
-    """The nominal design's reduced model as the diagnosis starts (the rig as declared) with ``effects``."""
+    """The nominal design's reduced model as the diagnosis starts (the rig as declared) with ``effects`` (with
+    ``self_contact``, on the FE's runs with self-contact, solved once for a design that lacks them)."""
+    from pnmold.physics.probes import characterised_for
     from pnmold.physics.rom import ReducedModel
 
-    return ReducedModel.for_design(load_design(case.design)).run(_protocol(case, kind), effects, None,
-                                                                  {"modulus_scale": scale})
+    design = load_design(case.design)
+    c = characterised_for(design, [kind], [case.orientation], contact=effects.get("self_contact", 0.0) > 0)
+    return ReducedModel.for_design(design, c).run(_protocol(case, kind), effects, None, {"modulus_scale": scale})
 
 
 def _span(cols_by_kind: dict, key: str) -> float:

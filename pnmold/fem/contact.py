@@ -338,6 +338,16 @@ class ContactSurface:
         self.searches += 1
         return s[keep], t[keep]
 
+    def listed_nodes(self) -> np.ndarray:
+        """(n, 9) the nodes each candidate pair of the current list couples (its slave's facet, then the
+        triangle), one row per facet and triangle: what the tangent's pattern is grown by at once, so that
+        pairs meeting later need no new pattern (each new one costs the linear solver an analysis)."""
+        if self._listed is None:
+            return np.zeros((0, 9), dtype=np.int64)
+        _, s, t = self._listed
+        ft = np.unique((s // len(_POINTS)) * len(self.triangles) + t)
+        return np.column_stack([self.facets[ft // len(self.triangles)], self.triangles[ft % len(self.triangles)]])
+
     def terms(self, x: np.ndarray, want_k: bool) -> ContactTerms:
         """The contact's energy, residual and tangent at the node positions ``x``."""
         opt = self.options

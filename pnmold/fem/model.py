@@ -295,6 +295,8 @@ class Model:
         R = np.zeros(self.ndof)
         Rext = np.zeros(self.ndof)
         touch = self.contact.terms(self.X + u.reshape(-1, 3), want_k) if self.contact is not None else None
+        if want_k and touch is not None and self.pattern.lacks(touch.gdofs):
+            self.pattern.positions(self.contact.listed_nodes())  # growing anyway: by every candidate's couplings
         kmap_touch = self.pattern.positions(touch.gdofs) if want_k and touch is not None else None
         data = np.zeros(self.pattern.indices.size) if want_k else None
         energy, inverted = self._solid(u, want_k, R, data, mixed)

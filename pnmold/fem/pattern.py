@@ -44,6 +44,12 @@ class Pattern:
         self.maps[name] = self.positions(fdofs)
         return self.maps[name]
 
+    def lacks(self, fdofs: np.ndarray) -> bool:
+        """Whether the elements ``fdofs`` couple dofs the pattern does not hold yet."""
+        keys = kernels.pair_keys(fdofs, self.free_index, self.nfree)
+        pos = np.clip(np.searchsorted(self._keys, keys), 0, self._keys.size - 1)
+        return bool(((keys >= 0) & (self._keys[pos] != keys)).any())
+
     def positions(self, fdofs: np.ndarray) -> np.ndarray:
         """Positions in the pattern of each entry of the elements ``fdofs``; the pattern grows by
         the couplings it lacks, the maps already made moved along."""
