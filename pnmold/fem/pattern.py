@@ -3,7 +3,8 @@ term's element entries into it (:class:`.model.Model` assembles with them).
 
 The pattern starts as the solid's couplings and grows by the couplings a later term lacks: the
 sheet's and the cavity's facets once, the self-contact's pairs as the shape moves (the linear
-solver then analyses the new pattern once). When it grows, every map already made is moved
+solver then analyses the new pattern once; :class:`.model.Model` grows it then by every candidate
+pair's couplings, so that pairs meeting later need no new analysis). When it grows, every map already made is moved
 along, so each term's entries stay where they were.
 """
 
