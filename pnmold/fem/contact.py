@@ -26,7 +26,8 @@ activation_mm)`` (:mod:`.gap`: to the face, an edge or a vertex). The nearest fa
 chosen before that window: a point beside a wall, still beyond the activation distance, must not
 pair with the farther face over the wall's edge, behind whose plane it lies (a hanging fPN's
 chamber tops closing: the neighbour's corner was pushed 0.5 mm through the top face, and the path
-stalled).
+stalled). Over a valley, where two triangles are as near, the slave keeps the last tangent's
+(:attr:`SelfContact.hold_mm`); residual and tangent at one state still pair alike.
 
 **Penalty.** Per pair ``A_q w(c) phi(g) / 2``: ``A_q`` the slave point's reference area, halved
 (two passes), ``w(c)`` the C2 facing weight of an edge or vertex pair (1 for a face pair;
@@ -45,11 +46,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..tetmesh import CAVITY, SYMMETRY
 from .gap import gap, signed_distance
-from .overlap import SAME_PART_MM, point_triangle_distance
+from .overlap import SAME_PART_MM, near_pairs, point_triangle_distance
 
 #: the 4 flat triangles of a 6-node facet (corners 0-2, midsides 01, 12, 02), oriented as it
 SUBTRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
@@ -58,8 +58,6 @@ SUBTRIANGLES = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 #: triangle's doubled Jacobian
 _POINTS = np.array([[2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
 _UPPER = np.triu_indices(27)  # the row-by-row upper triangle of a pair's 27 x 27 tangent
-#: :func:`_near` searches the triangles up to this many times the median radius at once
-_RADIUS_SPREAD = 3.0
 #: the margin (mm) of the candidate pairs' list beyond the contact's reach (:meth:`ContactSurface._candidates`):
 #: a wider list is filtered longer at each evaluation but searched less often. Assumed, set by the
 #: fPN build's curve to the tip meeting the base (one run each, on a machine shared with other FE work):
@@ -113,25 +111,22 @@ class SelfContact:
       clamped end. Half the length is assumed: walls meeting across a chamber gap are a few mm
       apart, the two ends about the length.
     - ``predicted_closing`` 0.25: the path shortens an increment, before solving it, while its
-      predicted state (extrapolated from the converged states, which knows nothing of contact)
-      brings a pair closer than this share of ``activation_mm``, or, where the last converged
-      state's closest pair is nearer already, closer than that pair less this share
-      (:meth:`ContactSurface.closest_gap`, :mod:`.path`). A predictor that drives walls into each
-      other puts spurious contact pressures into the first tangent, whose curvature terms then
-      turn the soft bending mode negative, and the increment fails as too long after a
-      factorisation. A quarter is assumed, set by the fPN build: predicted states with the
-      closest pair at 0.06 mm or more had no more negative eigenvalues than the last converged
-      state, those at 0.008 mm or less 1 to 31 more, every one from the contact's tangent.
+      predicted state (extrapolated, blind to contact) brings a pair closer than this share of
+      ``activation_mm``, or closer than the last converged state's closest pair less this share
+      (:meth:`ContactSurface.closest_gap`, :mod:`.path`): walls driven into each other put spurious
+      pressures into the first tangent, whose curvature terms turn the soft bending mode negative.
+      Assumed, set by the fPN build: predicted closest pairs at 0.06 mm or more added no negative
+      eigenvalue, those at 0.008 mm or less 1 to 31, every one from the contact's tangent.
     - ``predictor_order`` 2: from a converged state with pairs active the path extrapolates
       through the last three states at most (:func:`.states.predictor_order`), not the Newton
-      options' 4th-order Lagrange polynomial through five: through the states where walls
-      touched, Newton converged slowly from the 4th order's prediction (on the fPN build its
-      increments took 1 to 10 iterations, the residual falling 3-fold an iteration and at times
-      rising again; likely, not measured: where the walls' motion turns from one state to the
-      next the polynomial swings, and with it the stresses the first tangent is built with). Measured on
-      the fPN build (``benchmarks/contact.py``), orders 1 / 2 / 3 / 4 took 177 / 171 / 173 / 206
-      Newton iterations and 74 / 72 / 69 / 79 factorisations to the same end; 2 is the fewest
-      iterations and GMRES products, not tuned further.
+      options' 4th-order polynomial through five. On the fPN build (``benchmarks/contact.py``)
+      orders 1 / 2 / 3 / 4 took 177 / 171 / 173 / 206 Newton iterations and 74 / 72 / 69 / 79
+      factorisations to the same end; 2 is the fewest iterations, not tuned further.
+    - ``hold_mm`` 0.002: a slave keeps the triangle of the last tangent while it lies over its face
+      within this of the nearest. Over a valley, however shallow, the nearest swaps
+      with a kink in the force's direction; Newton went back and forth across it and the path
+      stalled (a random Elastosil fPN hanging chambers down at 0.927 g: two slaves swapping face
+      pairs, the residual cycling 1.5e-4 / 4.8e-4). Assumed: a fiftieth of ``activation_mm``.
     """
 
     penalty_mpa_per_mm: float = 10.0
@@ -142,6 +137,7 @@ class SelfContact:
     stop_where_ends_meet: bool = True
     predicted_closing: float = 0.25
     predictor_order: int = 2
+    hold_mm: float = 0.002
 
 
 @dataclass
@@ -240,6 +236,7 @@ class ContactSurface:
         self._spread = float(np.abs(self.N).sum(axis=1).max())
         self._nodes = np.unique(self.facets)
         self._listed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # (x, s, t)
+        self._held = np.full(len(self.area), -1, dtype=np.int64)  # each slave's last nearest triangle
         #: the candidate lists made (:meth:`_candidates`)
         self.searches = 0
 
@@ -258,7 +255,7 @@ class ContactSurface:
         centroid = p.mean(axis=1)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1)
         points = self.points(X)
-        s, t, _ = _near(points, centroid, self.options.same_part_mm + radius)
+        s, t, _ = near_pairs(points, centroid, self.options.same_part_mm + radius)
         dist = point_triangle_distance(points[s], p[t])
         close = dist <= self.options.same_part_mm
         s, t, dist = s[close], t[close], dist[close]
@@ -269,9 +266,10 @@ class ContactSurface:
                   & (np.einsum("ij,ij->i", normals[s], normal) <= -FACING_ACROSS))
         return np.unique(s[~across] * len(self.triangles) + t[~across])
 
-    def pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def pairs(self, x: np.ndarray, hold: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each paired slave point, its master triangle's 3 nodes (turned, not flipped, to start
-        with the feature nearest the point) and that feature: 3 the face, 2 an edge, 1 a vertex."""
+        with the feature nearest the point) and that feature: 3 the face, 2 an edge, 1 a vertex;
+        ``hold``: these triangles are the ones kept next (a tangent's: :attr:`SelfContact.hold_mm`)."""
         from trimesh.triangles import closest_point, points_to_barycentric
 
         opt = self.options
@@ -300,10 +298,15 @@ class ContactSurface:
         # or the vertex nearest it), the one it faces most squarely, so the energy stays continuous
         nearest = np.full(len(xs_all), np.inf)
         np.minimum.at(nearest, s, dist)
-        tied = dist <= nearest[s] * (1 + 1e-9) + 1e-12
+        # the last tangent's triangle (``hold``) while the slave lies over its face within ``hold_mm`` of the nearest
+        held = (self._held[s] == t) & (dist - np.abs(plane) <= 1e-9 * np.maximum(dist, 1.0))
+        tied = (dist <= nearest[s] * (1 + 1e-9) + 1e-12) | (held & (dist <= nearest[s] + opt.hold_mm))
         s, t, dist, plane, closest, weight, signed = (a[tied] for a in (s, t, dist, plane, closest, weight, signed))
-        order = np.lexsort((-weight, s))
+        order = np.lexsort((~held[tied], -weight, s))
         first = order[np.r_[True, s[order][1:] != s[order][:-1]]] if order.size else order
+        if hold:
+            self._held[:] = -1
+            self._held[s[first]] = t[first]
         ok = (signed[first] > -opt.max_penetration_mm) & (signed[first] < opt.activation_mm)
         first = first[ok]
         s, t, dist, plane, closest = s[first], t[first], dist[first], plane[first], closest[first]
@@ -330,7 +333,7 @@ class ContactSurface:
             moved = float(np.sqrt(((x[self._nodes] - x0[self._nodes]) ** 2).sum(axis=1).max()))
             if (3 + self._spread) * moved <= CANDIDATE_SKIN_MM:
                 return s, t
-        s, t, _ = _near(xs, centroid, reach + CANDIDATE_SKIN_MM)
+        s, t, _ = near_pairs(xs, centroid, reach + CANDIDATE_SKIN_MM)
         key = s * len(self.triangles) + t
         pos = np.clip(np.searchsorted(self._same, key), 0, max(self._same.size - 1, 0))
         keep = (self._same[pos] != key) if self._same.size else np.ones(key.size, bool)
@@ -351,7 +354,7 @@ class ContactSurface:
     def terms(self, x: np.ndarray, want_k: bool) -> ContactTerms:
         """The contact's energy, residual and tangent at the node positions ``x``."""
         opt = self.options
-        s, master, feature = self.pairs(x)
+        s, master, feature = self.pairs(x, hold=want_k)
         phi, grad, hess, g, w = pair_energy(np.concatenate([self.points(x)[s][:, None], x[master]], axis=1),
                                             feature, opt, want_k)
         weight = 0.5 * self.area[s]  # two passes, half each
@@ -425,24 +428,3 @@ def outer_faces(boundary: np.ndarray, named: Mapping[str, np.ndarray]) -> np.nda
         return (f[:, 0] * n + f[:, 1]) * n + f[:, 2]
 
     return boundary[~np.isin(keys(boundary), keys(held))]
-
-
-def _near(points: np.ndarray, centroids: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(point, centroid) index pairs within each centroid's ``radius`` of each other, and their distance
-    (KD-trees). The triangles up to :data:`_RADIUS_SPREAD` times the median radius are searched at
-    once at their largest radius; the few larger ones (a ballooned wall's stretched triangles) one
-    by one at their own, so one huge triangle cannot make every point a candidate of every other
-    (on an Ecoflex fPN past its stretch at break the search at one radius took 12 GB)."""
-    tree = cKDTree(points)
-    cap = min(float(radius.max()), _RADIUS_SPREAD * float(np.median(radius)))
-    small = np.flatnonzero(radius <= cap)
-    found = tree.sparse_distance_matrix(cKDTree(centroids[small]), cap, output_type="ndarray")
-    s, t, apart = found["i"].astype(np.int64), small[found["j"]], found["v"]
-    keep = apart <= radius[t]
-    s, t, apart = [s[keep]], [t[keep]], [apart[keep]]
-    for j in np.flatnonzero(radius > cap):
-        near = np.asarray(tree.query_ball_point(centroids[j], radius[j]), dtype=np.int64)
-        s.append(near)
-        t.append(np.full(near.size, j, dtype=np.int64))
-        apart.append(np.linalg.norm(points[near] - centroids[j], axis=1))
-    return np.concatenate(s), np.concatenate(t), np.concatenate(apart)

@@ -106,6 +106,7 @@ class _Run:
     ev: Evaluation
     mixed: Stresses | None  # the mixed stresses of the next tangent (None: plain Newton)
     history: list[float] = field(default_factory=list)  # residual norms
+    step_norms: list[float] = field(default_factory=list)  # the accepted steps' norms (mm)
     constraint: np.ndarray | None = None  # the cavity volume's gradient under volume control
     n_fact: int = 0  # tangents used: factored, shifted or solved by GMRES
     short: int = 0  # line searches in a row that cut the step below 0.3
@@ -235,6 +236,7 @@ class Newton(LineSearch):
         search guarded once it crawls."""
         if run.mixed is not None:
             run.mixed = self._update_stresses(run.u, step, run.mixed)
+        run.step_norms.append(float(np.linalg.norm(step.u - run.u)))
         run.u, run.p, run.ev = step.u, step.p, step.ev
         run.short = run.short + 1 if step.alpha < 0.3 else 0
         if run.short >= 2 and not run.guarded:
@@ -266,7 +268,7 @@ class Newton(LineSearch):
             self.stats.newton_iterations.append(len(run.history) - 1)
             log.debug("converged: residuals %s", " ".join(f"{h:.1e}" for h in run.history))
         return NewtonResult(ok, run.u, run.ev, run.history, run.p, self.stats.factorizations - run.fact0,
-                            why, self.model.stresses(run.u) if ok else None, run.n_fact)
+                            why, self.model.stresses(run.u) if ok else None, run.n_fact, run.step_norms)
 
     def _small_decrement(self, u: np.ndarray, p: float, ev: Evaluation, volume: float | None,
                          load: Load, work: float, volume_tol: float

@@ -77,7 +77,8 @@ class NewtonOptions:
 class NewtonResult:
     """Outcome of one Newton solve. ``pressure_mpa`` is the solved pressure under volume
     control (the given one under load control); ``why`` says why it failed;
-    ``factorizations`` those it took, ``tangents`` the tangents it used (factored or not)."""
+    ``factorizations`` those it took, ``tangents`` the tangents it used (factored or not),
+    ``step_norms`` the norms of its accepted steps (mm)."""
 
     converged: bool
     u: np.ndarray
@@ -88,6 +89,7 @@ class NewtonResult:
     why: str = ""
     stresses: Stresses | None = None
     tangents: int = 0
+    step_norms: list[float] = field(default_factory=list)
 
 
 @dataclass
