@@ -353,7 +353,9 @@ def generate(case: Case, folder: Path) -> None:
         with contextlib.redirect_stderr(said):
             code = main(simulate_argv(case, kind, path, noise))
         if code != 0:
-            raise RuntimeError(f"{case.id}: pnmold simulate exited {code}: {said.getvalue().strip()[-300:]}")
+            said = said.getvalue().strip()
+            lost = " (no row to record)" if "no row to record" in said else ""  # lost at rest: see _make
+            raise RuntimeError(f"{case.id}: pnmold simulate exited {code}{lost}: {said[:200]}")
         strip_hints(path)
 
 

@@ -84,7 +84,7 @@ def test_report_and_json_follow_the_contract(tmp_path):
     char = characterise(load_design("fpn"))
     p_max = 0.85 * (char.full_bend_pressure_kpa or char.max_pressure_kpa)
     # a compliance the model's form error does not hide (0.1 mm/N moves the fpn's tip by 0.8 % of its range)
-    generate(visible(Case("g", "fpn", "", "layer_compliance", 0.1, {}, "horizontal", 2.0, p_max, 8.0, "rom", 5)),
+    generate(visible(Case("g", "fpn", "", "layer_compliance", 0.1, {}, "chambers_up", 2.0, p_max, 8.0, "rom", 5)),
              tmp_path)
     out = tmp_path / "diag.json"
     code = main(["diagnose", "fpn", str(tmp_path / "bending.csv"), str(tmp_path / "pv.csv"), "--json", str(out),
