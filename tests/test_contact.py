@@ -242,6 +242,25 @@ def test_a_point_over_a_valley_keeps_its_slope_while_the_other_is_barely_nearer(
     assert slopes(surface, -0.0015) == {"left"}  # a tangent there moved the hold to the left
 
 
+def test_two_pieces_of_one_flat_face_never_pair_however_far_the_face_bends():
+    """Two facets of one flat face, 2.2 mm apart in the reference shape (beyond the 1 mm same-part
+    distance), the second then laid over the first 0.3 mm up, as a face pressed out into a dome puts
+    one of its points behind another's triangle: one part, no pair (the sPN's end face paired so, 0.5 mm
+    deep in a prediction, and its free run with contact ended 20 kPa early). (A body farther behind a face
+    than ``same_part_mm`` stays another part: the blocks' prediction test below pairs block B with A's
+    bottom face.)"""
+    corners = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0],
+                        [3.5, 0.0, 0.0], [5.5, 0.0, 0.0], [3.5, 2.0, 0.0]])
+    edges = ((0, 1), (1, 2), (0, 2), (3, 4), (4, 5), (3, 5))
+    X = np.vstack([corners, *[(corners[a] + corners[b]) / 2 for a, b in edges]])
+    facets = np.array([[0, 1, 2, 6, 7, 8], [3, 4, 5, 9, 10, 11]])
+    x = X.copy()
+    second = np.unique(facets[1])
+    x[second] += [-3.5, 0.0, 0.3]  # over the first, 0.3 mm up: its points 0.3 mm behind the second's plane
+    surface = ContactSurface(X, facets, SelfContact())
+    assert surface.terms(x, want_k=False).pairs == 0
+
+
 def test_a_point_beside_a_wall_is_not_pushed_through_the_face_over_its_edge():
     """The small facet lies 0.36 mm from the top facet's edge, behind its plane, and 0.2 mm from the
     side facet (beyond the 0.1 mm activation). Its nearest surface is the side: no pair, no force

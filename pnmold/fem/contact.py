@@ -63,6 +63,12 @@ _UPPER = np.triu_indices(27)  # the row-by-row upper triangle of a pair's 27 x 2
 #: fPN build's curve to the tip meeting the base (one run each, on a machine shared with other FE work):
 #: 0.25 / 0.5 / 1 / 2 mm took 159 / 136 / 107 / 81 searches and 23.3 / 24.8 / 26.5 / 30.4 s of assembly
 CANDIDATE_SKIN_MM = 0.5
+#: a point in a triangle's plane, or behind it by at most ``same_part_mm``, in the reference shape (one flat
+#: face, a convex corner's two faces) is one part with it up to this far apart (mm; assumed): pressed out
+#: into a dome, the sPN's end face put points 1.0-2.1 mm from it 0.3-0.5 mm behind its own and its side's
+#: triangles, and its free run with contact ended 20 kPa early. A point in front of a triangle (across a
+#: gap, a concave corner's faces) stays another part beyond ``same_part_mm``
+FLAT_FACE_MM = 5.0
 #: a point and a triangle closer than ``same_part_mm`` in the reference shape are still two parts
 #: when they face each other across air this squarely (:meth:`ContactSurface._same_part`; assumed:
 #: cos 26 deg, the walls of a narrow gap face each other at 0 deg, a concave corner's faces at 90)
@@ -255,16 +261,24 @@ class ContactSurface:
         centroid = p.mean(axis=1)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1)
         points = self.points(X)
-        s, t, _ = near_pairs(points, centroid, self.options.same_part_mm + radius)
+        tri_normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        tri_normal /= np.linalg.norm(tri_normal, axis=1)[:, None]
+        s, t, apart = near_pairs(points, centroid, max(self.options.same_part_mm, FLAT_FACE_MM) + radius)
+        plane = np.einsum("ij,ij->i", points[s] - centroid[t], tri_normal[t])
+        # in the triangle's plane or behind it by at most ``same_part_mm`` (one flat face, a convex corner's two
+        # faces, a thin wall's sides) and near: one part (a face pressed out into a dome puts points behind its
+        # own triangles); farther behind, another body may lie beyond air (a block above another's bottom face)
+        flat = (plane <= 1e-6) & (plane >= -self.options.same_part_mm) & (apart <= FLAT_FACE_MM + radius[t])
+        keys = [s[flat] * len(self.triangles) + t[flat]]
+        near = ~flat & (apart <= self.options.same_part_mm + radius[t])
+        s, t, plane = s[near], t[near], plane[near]
         dist = point_triangle_distance(points[s], p[t])
         close = dist <= self.options.same_part_mm
-        s, t, dist = s[close], t[close], dist[close]
-        normal = np.cross(p[t, 1] - p[t, 0], p[t, 2] - p[t, 0])
-        normal /= np.linalg.norm(normal, axis=1)[:, None]
-        plane = np.einsum("ij,ij->i", points[s] - centroid[t], normal)
+        s, t, dist, plane = s[close], t[close], dist[close], plane[close]
         across = ((plane >= FACING_ACROSS * np.maximum(dist, 1e-12)) & (dist > 0)
-                  & (np.einsum("ij,ij->i", normals[s], normal) <= -FACING_ACROSS))
-        return np.unique(s[~across] * len(self.triangles) + t[~across])
+                  & (np.einsum("ij,ij->i", normals[s], tri_normal[t]) <= -FACING_ACROSS))
+        keys.append(s[~across] * len(self.triangles) + t[~across])
+        return np.unique(np.concatenate(keys))
 
     def pairs(self, x: np.ndarray, hold: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each paired slave point, its master triangle's 3 nodes (turned, not flipped, to start
