@@ -17,7 +17,8 @@ trial of its line search, so residual, tangent and energy at one state use the s
 a KD-tree of the masters' deformed centroids gives each slave its candidates, those of *the
 same part* (reference point-to-triangle distance at most ``same_part_mm``, :mod:`.overlap`,
 unless the two face each other squarely across air, as the walls of a gap narrower than twice
-that do; found once) dropped, into a list kept while the nodes move less than its margin
+that do; or, up to :data:`FLAT_FACE_MM`, in the triangle's plane or just behind it; found once)
+dropped, into a list kept while the nodes move less than its margin
 (:meth:`ContactSurface._candidates`: the same pairs as a fresh search, at a fraction of its cost);
 of the candidates a triangle's reach holds, the triangle nearest the slave is its pair (of
 triangles as near, around the edge or vertex nearest it, the one it faces most squarely) where
@@ -256,7 +257,9 @@ class ContactSurface:
         gap at least :data:`FACING_ACROSS` of its distance) and its own outward normal (``normals``,
         per slave point) turned back at the triangle (cosine at most -:data:`FACING_ACROSS`), as the
         walls of a gap narrower than twice ``same_part_mm`` face each other; a concave corner's two
-        faces (normals at right angles) and a face's own neighbours (in its plane) stay one part."""
+        faces (normals at right angles) and a face's own neighbours (in its plane) stay one part; so do,
+        up to :data:`FLAT_FACE_MM` apart, a point in a triangle's plane or at most ``same_part_mm`` behind
+        it (one flat face, a convex corner's two faces)."""
         p = X[self.triangles]
         centroid = p.mean(axis=1)
         radius = np.linalg.norm(p - centroid[:, None], axis=2).max(axis=1)
