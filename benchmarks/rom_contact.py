@@ -50,16 +50,19 @@ def run(rom: ReducedModel, steps: list[dict], orientation: str, share: float) ->
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("templates", nargs="*", default=["fpn", "fig-s2a-h5", "fig-s2c-w2"])
+    parser.add_argument("--orientations", nargs="+", default=list(ORIENTATIONS),
+                        choices=["chambers_up", "chambers_down", "horizontal"])
     parser.add_argument("--write-test-data", action="store_true")
     args = parser.parse_args()
     t0 = time.perf_counter()
     written: dict = {}
     for name in args.templates:
         design = load_design(name)
-        rom = ReducedModel.for_design(design, characterised_for(design, ["bending"], ORIENTATIONS, contact=True))
+        rom = ReducedModel.for_design(design, characterised_for(design, ["bending"], args.orientations,
+                                                                        contact=True))
         end = rom.contact[1]
         pressures = np.linspace(0.0, SHARE * end, 6)
-        for orientation in ORIENTATIONS:
+        for orientation in args.orientations:
             steps = fe_steps(design, orientation, pressures, options=SolveOptions(self_contact=SelfContact()))
             if not steps:  # lost stability at rest: said by fe_steps
                 continue

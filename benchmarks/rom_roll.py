@@ -9,7 +9,7 @@ prediction) and without it (the roll compliance left out: the weight out of the 
 Prints per design the rest tip of each, the probe's roll at the tip and the worst and mean tip miss as
 a share of the length.
 
-    .venv/bin/python benchmarks/rom_roll.py [TEMPLATE...] [--random 3] [--seed 1] [--share 0.5]
+    .venv/bin/python benchmarks/rom_roll.py [TEMPLATE...] [--random 3] [--seed 1] [--share 0.85]
         [--write-test-data]
 
 ``--write-test-data`` writes the first template's FE steps to ``tests/data/`` (what ``tests/test_roll.py``
@@ -81,7 +81,7 @@ def main() -> None:
     parser.add_argument("templates", nargs="*", default=["fpn", "spn"])
     parser.add_argument("--random", type=int, default=3)
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--share", type=float, default=0.5)
+    parser.add_argument("--share", type=float, default=0.85)
     parser.add_argument("--write-test-data", action="store_true")
     args = parser.parse_args()
     for design in designs(args):

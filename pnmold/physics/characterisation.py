@@ -84,10 +84,10 @@ class Characterisation:
     roll_compliance_rad_per_n_mm: np.ndarray | None = None
     probe_roll_gravity_g: float = 0.0
     probe_roll: dict | None = None
-    #: held on its side: how the torsional stiffness grows with the effective pressure, ``c(p) = c / (1 + beta
-    #: p)`` (beta per kPa), from the same probe carried on to a pressure (:func:`pnmold.physics.roll.stiffened`);
-    #: None until that probe ran (an older characterisation: the probe runs again)
-    roll_stiffening_per_kpa: float | None = None
+    #: held on its side: the factor on the torsional stiffness at the effective pressures the same probe was
+    #: carried through (``pressure_kpa``, ``factor``; :func:`pnmold.physics.roll.stiffened`); None until that
+    #: probe ran (an older characterisation, which held one law ``roll_stiffening_per_kpa``: the probe runs again)
+    roll_stiffening: dict | None = None
     #: on-demand probes tried that did not serve (``down``, ``layer chambers_up``, ``layer chambers_down``,
     #: ``contact chambers_up``, ``contact chambers_down``, ``roll``) -> why: not tried again (the model keeps
     #: what it has without them)

@@ -73,26 +73,27 @@ def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa
                progress: Callable[[str], None] | None = None) -> Characterisation:
     """The characterisation with the edges' torsional compliance held on its side
     (``roll_compliance_rad_per_n_mm``, :mod:`pnmold.physics.roll`) and its stiffening with pressure
-    (``roll_stiffening_per_kpa``): the whole body (no half model: the weight leaves the plane of symmetry)
+    (``roll_stiffening``): the whole body (no half model: the weight leaves the plane of symmetry)
     under :data:`~pnmold.physics.roll.ROLL_PROBE_G` horizontal. At rest its sections' rolls read at the rod's
     nodes are identified with the rod under the rolled weight (the chambers-down compliance: the rolled weight
-    opens the bend; :func:`downward_probe` first); carried on to
-    :data:`~pnmold.physics.roll.ROLL_PROBE_PRESSURE_SHARE` of the free run's last pressure, its tips on the way give
-    the stiffening (:func:`roll_stiffening`). FE, a few minutes; once, cached."""
+    opens the bend; :func:`downward_probe` first); carried on through
+    :data:`~pnmold.physics.roll.ROLL_PROBE_SHARES` of the free run's last pressure (as far as the FE goes), its
+    tips there give the stiffening (:func:`roll_stiffening`). FE, a few minutes; once, cached."""
     from pnmold.design_fe import run_fe
-    from pnmold.physics.roll import ROLL_PROBE_G, ROLL_PROBE_PRESSURE_SHARE, section_rolls
+    from pnmold.physics.roll import ROLL_PROBE_G, ROLL_PROBE_SHARES, section_rolls
 
     size = replace(size or DEFAULT_SIZE, half=True)
     result = downward_probe(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
-    if (result.roll_stiffening_per_kpa is not None or "roll" in result.probes_failed or result.source != "fe"
+    if (result.roll_stiffening is not None or "roll" in result.probes_failed or result.source != "fe"
             or not result.has_rod):
         return result
-    top = ROLL_PROBE_PRESSURE_SHARE * float(result.pressure_kpa[-1])
+    pressures = [share * float(result.pressure_kpa[-1]) for share in ROLL_PROBE_SHARES]
+    top = pressures[-1]
     (progress or (lambda stage: None))(f"{design.name}: roll probe (FE of the whole body, {ROLL_PROBE_G:g} g "
                                        f"horizontal, to {top:.3g} kPa)")
     t0 = time.perf_counter()
     run = run_fe(design, orientation="horizontal", effects={"gravity": ROLL_PROBE_G},
-                 pressures_kpa=[top / 3.0, 2.0 * top / 3.0, top], size=replace(size, half=False), keep_partial=True)
+                 pressures_kpa=pressures, size=replace(size, half=False), keep_partial=True)
     steps, shapes = run.solution.steps, run.solution.shapes_mm
     if not steps or steps[0].pressure_kpa != 0.0 or not shapes or run.solution.rest_weight_g is not None:
         return _failed(design, result, "roll", run.solution.reason or "no state at rest", size, max_pressure_kpa)
@@ -102,51 +103,71 @@ def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa
     doc = {"tip_x_mm": rest.tip_x_mm, "tip_z_mm": rest.tip_z_mm, "bend_angle_deg": rest.bend_angle_deg,
            "node_roll_deg": np.degrees(node_roll).tolist(), "pressed": []}
     result = replace(result, roll_compliance_rad_per_n_mm=roll, probe_roll_gravity_g=ROLL_PROBE_G, probe_roll=doc,
-                     roll_stiffening_per_kpa=0.0)
+                     roll_stiffening={"pressure_kpa": [], "factor": []})
     if len(steps) > 1 and len(shapes) == len(steps):
         doc["pressed"] = [{"pressure_kpa": s.pressure_kpa, "tip_x_mm": s.tip_x_mm, "tip_z_mm": s.tip_z_mm,
                            "node_roll_deg": np.degrees(section_rolls(run.mesh.nodes_mm, u, result.rod_x_mm)).tolist()}
                           for s, u in zip(steps[1:], shapes[1:], strict=True)]
-        result = replace(result, roll_stiffening_per_kpa=roll_stiffening(design, result))
+        result = replace(result, roll_stiffening=roll_stiffening(design, result))
     result = replace(result, timings_s={**result.timings_s, "probe_roll": round(time.perf_counter() - t0, 2)})
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
     return result
 
 
-def roll_stiffening(design: Design, result: Characterisation) -> float:
-    """The torsional stiffening with pressure (per kPa, :func:`pnmold.physics.roll.stiffened`) that brings the
-    reduced model's tips, held on its side at the roll probe's weight, nearest the FE's at the probe's pressed
-    states (``result``'s ``probe_roll["pressed"]``; least squares); 0 where there is none, the body hardly
-    rolls, or the tip moves less than :data:`~pnmold.physics.roll.ROLL_STIFFENING_MIN_SHARE` of the length over
-    the stiffening's range (the rolled weight moves nothing to read it from). Held within
-    :data:`~pnmold.physics.roll.ROLL_STIFFENING_BOUNDS` over the highest of those pressures."""
-    from scipy.optimize import minimize_scalar
-
+def roll_stiffening(design: Design, result: Characterisation) -> dict:
+    """The torsional stiffening with pressure (:func:`pnmold.physics.roll.stiffened`'s table): at each of the
+    roll probe's pressed states (``result``'s ``probe_roll["pressed"]``), the factor on the torsional stiffness
+    within :data:`~pnmold.physics.roll.ROLL_STIFFENING_BOUNDS` that brings the reduced model's tip, held on its
+    side at the probe's weight, nearest the FE's, a factor away from 1 costing as a tip miss of
+    :data:`~pnmold.physics.roll.ROLL_STIFFENING_COST_SHARE` of the length per e-fold (where the tip hardly
+    feels the roll, the model's other misfit reads no stiffening into it). A body that hardly rolls: an empty
+    table (no stiffening)."""
     from pnmold.physics.protocol import Protocol
-    from pnmold.physics.roll import ROLL_STIFFENING_BOUNDS, ROLL_STIFFENING_MIN_SHARE
+    from pnmold.physics.roll import ROLL_STIFFENING_BOUNDS, ROLL_STIFFENING_COST_SHARE
     from pnmold.physics.rom import MIN_ROLL_DEG, ReducedModel
 
+    none = {"pressure_kpa": [], "factor": []}
     probe = result.probe_roll or {}
     pressed = probe.get("pressed") or []
     if not pressed or max(np.abs(probe["node_roll_deg"])) < MIN_ROLL_DEG:
-        return 0.0
+        return none
     p = np.array([s["pressure_kpa"] for s in pressed])
     fe = np.array([[s["tip_x_mm"], s["tip_z_mm"]] for s in pressed])
     protocol = Protocol("bending", p, "horizontal")
 
-    def tips(beta: float) -> np.ndarray:
-        model = ReducedModel(design, replace(result, roll_stiffening_per_kpa=beta))
-        out = model.run(protocol, {"gravity": result.probe_roll_gravity_g}, partial=True)
+    def tips(factor: np.ndarray) -> np.ndarray:
+        """(S, 2) the model's tips at the states with ``factor`` (S,) at each state."""
+        table = {"pressure_kpa": p.tolist(), "factor": factor.tolist()}
+        out = ReducedModel(design, replace(result, roll_stiffening=table)).run(
+            protocol, {"gravity": result.probe_roll_gravity_g}, partial=True)
         return np.stack([out["tip_x_mm"], out["tip_z_mm"]], axis=1)
 
-    def miss(beta: float) -> float:
-        d = float(np.sum((tips(beta) - fe) ** 2))
-        return d if np.isfinite(d) else 1e18
+    def miss(factor: np.ndarray) -> np.ndarray:
+        d = np.sum((tips(factor) - fe) ** 2, axis=1) + (ROLL_STIFFENING_COST_SHARE * design.length_mm
+                                                         * np.log(factor)) ** 2
+        return np.where(np.isfinite(d), d, 1e18)
 
-    lo, hi = (b / float(p.max()) for b in ROLL_STIFFENING_BOUNDS)
-    if not np.nanmax(np.hypot(*(tips(lo) - tips(hi)).T), initial=0.0) >= ROLL_STIFFENING_MIN_SHARE * design.length_mm:
-        return 0.0
-    return float(minimize_scalar(miss, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3 / p.max()}).x)
+    lo, hi = (np.log(np.full(p.size, b, float)) for b in ROLL_STIFFENING_BOUNDS)
+    return {"pressure_kpa": p.tolist(), "factor": np.exp(_golden(miss, lo, hi)).tolist()}
+
+
+def _golden(miss: Callable[[np.ndarray], np.ndarray], lo: np.ndarray, hi: np.ndarray, tol: float = 1e-3
+            ) -> np.ndarray:
+    """Per state, the log factor in [``lo``, ``hi``] that minimises ``miss(exp(log factor))`` (a golden-section
+    search, every state at once: each state's miss depends on its own factor alone)."""
+    r = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo.copy(), hi.copy()
+    c, d = b - r * (b - a), a + r * (b - a)
+    fc, fd = miss(np.exp(c)), miss(np.exp(d))
+    while np.max(b - a) > tol:
+        left = fc < fd
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+        c_new, d_new = b - r * (b - a), a + r * (b - a)
+        c, d = np.where(left, c_new, d), np.where(left, c, d_new)
+        f = miss(np.exp(np.where(left, c, d)))
+        fc, fd = np.where(left, f, fd), np.where(left, fc, f)
+    return (a + b) / 2.0
 
 
 def downward_probe(design: Design, *, size: MeshSize | None = None,

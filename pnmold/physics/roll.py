@@ -40,21 +40,24 @@ section rolls with this module's own torque and sweep, so the model reproduces t
 Under pressure the body unrolls faster than the curl of its bend alone explains: on that design the FE's tip
 roll fell 29.1, 22.5, 15.7 and 8.5 deg at 0, 3.2, 6.4 and 9.6 kPa, nearly in proportion to the pressure, where
 the model with the compliance of rest gave 29.2, 24.7, 18.8 and 10.3, and its tip lay 5.3, 8.1 and 6.7 mm from
-the FE's. The torsional stiffness grows with the pressure (likely the walls' tension under pressure resisting
-the twist, as an axial pull stiffens a twisted bar: not shown). The model takes it linear in the effective
-pressure, ``c(p) = c / (1 + beta p)`` (:func:`stiffened`; the batch's stiffness factor divides the pressure
-as it multiplies the stiffness), with ``beta`` read from the same probe carried on to a tenth of the free run's
-last pressure: the value that brings the model's tips nearest the FE's at a third, two thirds and all of it
-(least squares, :func:`pnmold.physics.probes.roll_stiffening`). Read from the tips, ``beta`` also carries what
-else of the rolled sag the model leaves out: on that design the probe (2.4, 4.8, 7.3 kPa) gave 0.045 per kPa,
-and the tips of the FE on the build's finer mesh at 3.2, 6.4 and 9.6 kPa, not read, came within 1.0, 0.6 and
-3.2 mm (read from the sections' rolls at 3.2 kPa instead, 0.020 per kPa matched the FE's rolls at 6.4 and 9.6
-kPa within 0.6 deg but left the tips 3.5 and 4.4 mm off). Why low in the range: carried on to a quarter of the
-free run's last pressure, that design's FE held on its side stopped at 11.2 kPa, past the point where the
-bend's curl turns the torque about the axis; read there, ``beta`` came out negative (-0.025 per kPa) and the
-tips 9-19 mm off. Away from the states read (under another weight, rubber or pressure) it is a prediction;
-at 0.8 g, not read, the FE's rest roll at the tip was 19.9 deg and the model's 19.7 (no softening toward a
-buckling of the roll there).
+the FE's. The torsional stiffness changes with the pressure (likely the walls' tension under pressure resisting
+the twist, as an axial pull stiffens a twisted bar: not shown). The model reads it from the same probe carried
+on through the range (:data:`ROLL_PROBE_SHARES` of the free run's last pressure): at each pressed state, the
+factor on the torsional stiffness that brings the model's tip nearest the FE's (:func:`pnmold.physics.probes.
+roll_stiffening`), linear in the effective pressure between them and held beyond the last (:func:`stiffened`;
+the batch's stiffness factor divides the pressure as it multiplies the stiffness; never read past what the FE
+solved). Read from the tips, the factor also carries what else of the rolled sag the model leaves out.
+
+Why a factor per state, not one law: a single stiffening linear in pressure, ``c / (1 + beta p)``, read up
+to a tenth of the free run's last pressure (2.4, 4.8, 7.3 kPa on that design: 0.045 per kPa) brought the
+FE's tips on the build's finer mesh at 3.2, 6.4 and 9.6 kPa within 1.0, 0.6 and 3.2 mm, but on the fPN
+(-0.018 per kPa read at 1.5-4.6 kPa, a softening) it halved the stiffness by 26 kPa: the model rolled the
+body 38 deg there, where the FE's sections rolled 9 deg at most mid-length and 13 at the tip (the curled
+body's weight twists it back), and bent 194 deg against the FE's 211. Read on to a quarter of the range
+instead, the one law came out negative on that design (-0.025 per kPa) and the tips 9-19 mm off: one law
+cannot follow both ends. Away from the states read
+(under another weight or rubber) it is a prediction; at 0.8 g, not read, the FE's rest roll at the tip was
+19.9 deg and the model's 19.7 (no softening toward a buckling of the roll there).
 
 Read by a camera looking along gravity, the tip's z is the bending plane's, turned by each edge's roll:
 ``z = sum_e -l_e sin(psi_e) cos(phi_e)``, and x is unchanged. The bend angle is the end's direction
@@ -78,17 +81,16 @@ from pnmold.physics.rod import RodLoads, RodState
 
 #: the probe's gravity (g, horizontal): a test's own load (as the chambers-down probe's)
 ROLL_PROBE_G = 1.0
-#: the probe is carried on to this share of the free run's last pressure, where the torsional stiffening with
-#: pressure is read (assumed: low in the range a lab ramps through, where the rolled weight still matters; on
-#: the random design of the module docstring the stiffening read at 3.2 kPa and at 6.4 kPa differed by 2 %)
-ROLL_PROBE_PRESSURE_SHARE = 0.1
-#: the stiffening read there is held within these multiples of 1 / that pressure (assumed: the torsional stiffness
-#: at the probe's pressure between 0.5x and 5x its stiffness at rest); a softening is held at the lower bound's
-#: stiffness beyond (:func:`stiffened`: never less than half of rest's)
-ROLL_STIFFENING_BOUNDS = (-0.5, 4.0)
-#: the stiffening is read only where it moves the tip: between the bounds the model's tip at the probe's states
-#: must move by this share of the length (assumed: a body whose roll hardly shows in its tip gives 0)
-ROLL_STIFFENING_MIN_SHARE = 0.01
+#: the probe's pressed states, as shares of the free run's last pressure, where the torsional stiffening with
+#: pressure is read (assumed: dense low in the range, where the rolled weight matters most, on to 0.85 of
+#: it, short of where the free run ends)
+ROLL_PROBE_SHARES = (1 / 30, 2 / 30, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.85)
+#: the factor on the torsional stiffness read at a pressed state lies within these (assumed: between 0.5x and 5x
+#: the stiffness at rest)
+ROLL_STIFFENING_BOUNDS = (0.5, 5.0)
+#: a factor away from 1 costs, in reading it, as a tip miss of this share of the length per e-fold (assumed: where
+#: the tip hardly feels the roll, the model's other misfit of a few tenths of a millimetre reads no stiffening)
+ROLL_STIFFENING_COST_SHARE = 0.005
 #: the fixed point between shape and roll: at most this many iterations to this change of roll (rad). More
 #: roll sags the body toward its chambers, which lengthens the weight's lever and rolls it more: from no roll
 #: the iteration climbs to the nearest equilibrium (24 iterations on a 10-chamber Elastosil fPN held
@@ -170,12 +172,14 @@ def rolled(solve: Callable[[np.ndarray, RodState | None], RodState], compliance:
                     state.iterations, cut(node_roll))
 
 
-def stiffened(compliance: np.ndarray, p_eff_kpa: np.ndarray, beta_per_kpa: float | None) -> np.ndarray:
-    """(R, K) the torsional compliance (K,) at each row's effective pressure (R,): ``c / (1 + beta p)`` (the
-    module docstring's stiffening under pressure; ``beta`` None or 0: none), a softening held at the stiffness
-    of :data:`ROLL_STIFFENING_BOUNDS`' lower bound (half of rest's) at most."""
-    factor = 1.0 + (beta_per_kpa or 0.0) * np.maximum(np.asarray(p_eff_kpa, float), 0.0)
-    factor = np.maximum(factor, 1.0 + ROLL_STIFFENING_BOUNDS[0])
+def stiffened(compliance: np.ndarray, p_eff_kpa: np.ndarray, table: dict | None) -> np.ndarray:
+    """(R, K) the torsional compliance (K,) at each row's effective pressure (R,) over the stiffening ``table``'s
+    factor there (``pressure_kpa``, ``factor``: the module docstring's stiffening under pressure, 1 at rest,
+    linear between, held beyond the last pressure; None or empty: none)."""
+    p = np.maximum(np.asarray(p_eff_kpa, float), 0.0)
+    factor = np.ones_like(p)
+    if table and len(table["pressure_kpa"]):
+        factor = np.interp(p, [0.0, *table["pressure_kpa"]], [1.0, *table["factor"]])
     return np.asarray(compliance, float)[None, :] / factor[:, None]
 
 

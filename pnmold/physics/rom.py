@@ -310,7 +310,7 @@ class ReducedModel:
                         pass
                 return self._equilibria(angle, length, comp, (0.0, g), plane, partial, None, share)
 
-            roll = stiffened(roll, law.p_bend, self.characterisation.roll_stiffening_per_kpa) / law.stiff[:, None]
+            roll = stiffened(roll, law.p_bend, self.characterisation.roll_stiffening) / law.stiff[:, None]
             return rolled(solve, roll, self.loads, g, roll_axis_mm(self.design), partial)
         except RodError as err:
             at = ", ".join(f"{q:.4g}" for q in np.append(protocol.pressure_kpa, 0.0)[err.rows][:5])
