@@ -105,9 +105,16 @@ def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa
     result = replace(result, roll_compliance_rad_per_n_mm=roll, probe_roll_gravity_g=ROLL_PROBE_G, probe_roll=doc,
                      roll_stiffening={"pressure_kpa": [], "factor": []})
     if len(steps) > 1 and len(shapes) == len(steps):
+        # only the pressures asked for: a state where the FE stopped short (a critical point: its response
+        # to the weight turns singular there, which no factor on a model without that point stands in for)
+        # is kept aside, not read
+        asked = np.array(pressures)
         doc["pressed"] = [{"pressure_kpa": s.pressure_kpa, "tip_x_mm": s.tip_x_mm, "tip_z_mm": s.tip_z_mm,
                            "node_roll_deg": np.degrees(section_rolls(run.mesh.nodes_mm, u, result.rod_x_mm)).tolist()}
-                          for s, u in zip(steps[1:], shapes[1:], strict=True)]
+                          for s, u in zip(steps[1:], shapes[1:], strict=True)
+                          if np.isclose(s.pressure_kpa, asked, rtol=1e-9, atol=0.0).any()]
+        if not np.isclose(steps[-1].pressure_kpa, top, rtol=1e-9, atol=0.0):
+            doc["stopped"] = {"pressure_kpa": steps[-1].pressure_kpa, "reason": run.solution.reason}
         result = replace(result, roll_stiffening=roll_stiffening(design, result))
     result = replace(result, timings_s={**result.timings_s, "probe_roll": round(time.perf_counter() - t0, 2)})
     write_json(cache_path(design, size, max_pressure_kpa), result.to_json())
