@@ -216,3 +216,43 @@ def test_the_stiffening_read_from_pressed_tips_is_the_one_that_made_them():
     assert found["pressure_kpa"] == pytest.approx(p)
     # the cost of a factor away from 1 (ROLL_STIFFENING_COST_SHARE) pulls it a little toward 1: within 10 %
     assert found["factor"] == pytest.approx(truth, rel=0.1)
+
+
+def test_the_roll_probe_reads_only_the_pressures_it_asked_for_not_where_the_fe_stopped(tmp_path, monkeypatch):
+    """The FE held on its side stopping short of the probe's range (a critical point between two asked
+    pressures): its last state is kept aside with the reason, and the stiffening reads only the asked
+    pressures it reached (FE stood in for by a run whose sections roll about +x by a known angle)."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    import pnmold.design_fe
+    from pnmold.physics import probes
+    from pnmold.physics.roll import ROLL_PROBE_SHARES
+
+    design = load_design("fpn")
+    monkeypatch.setenv("PNMOLD_CACHE", str(tmp_path))
+    bundled = probes.downward_probe(design)
+    start = dataclasses.replace(bundled, roll_stiffening=None, roll_compliance_rad_per_n_mm=None, probe_roll=None)
+    monkeypatch.setattr(probes, "downward_probe", lambda *a, **k: start)
+    asked = [s * float(start.pressure_kpa[-1]) for s in ROLL_PROBE_SHARES]
+    reached = [0.0, *asked[:3], 0.5 * (asked[3] + asked[4])]  # stops between the 4th and 5th asked pressures
+    nodes = np.array([[x, y, z] for x in np.linspace(0.0, design.length_mm, 200) for y in (-5.0, 5.0)
+                      for z in (0.0, 10.0)])
+
+    def rolled_by(deg: float) -> np.ndarray:  # the mesh's nodes turned about +x (positive sinks +z toward -y)
+        a = np.radians(deg) * nodes[:, 0] / design.length_mm
+        y = nodes[:, 1] * np.cos(a) - nodes[:, 2] * np.sin(a)
+        z = nodes[:, 1] * np.sin(a) + nodes[:, 2] * np.cos(a)
+        return np.stack([np.zeros_like(y), y - nodes[:, 1], z - nodes[:, 2]], axis=1)
+
+    steps = [SimpleNamespace(pressure_kpa=p, tip_x_mm=110.0 - p, tip_z_mm=5.0 - 2.0 * p, bend_angle_deg=3.0 * p)
+             for p in reached]
+    solution = SimpleNamespace(steps=steps, shapes_mm=[rolled_by(10.0 - p / 10.0) for p in reached],
+                               rest_weight_g=None, reason="the actuator loses stability at ... (stood in for)")
+    monkeypatch.setattr(pnmold.design_fe, "run_fe",
+                        lambda *a, **k: SimpleNamespace(solution=solution, mesh=SimpleNamespace(nodes_mm=nodes)))
+    got = probes.roll_probe(design)
+    assert [s["pressure_kpa"] for s in got.probe_roll["pressed"]] == pytest.approx(asked[:3])
+    assert got.probe_roll["stopped"]["pressure_kpa"] == pytest.approx(reached[-1])
+    assert "loses stability" in got.probe_roll["stopped"]["reason"]
+    assert got.roll_stiffening["pressure_kpa"] == pytest.approx(asked[:3])
