@@ -3,12 +3,13 @@
 The reduced model's ``self_contact`` reads the FE's own free run with self-contact (no gravity; the
 characterisation's variant, :func:`pnmold.physics.characterise.self_contact_run`). Here, for each template
 named (default: fpn, fig-s2a-h5, fig-s2c-w2), the FE bends the actuator with its self-contact on chambers up
-and hanging chambers down (Earth's gravity, the characterisation's mesh) at six pressures up to 0.85 of
+and hanging chambers down, or the ``--orientations`` given (``horizontal``: the whole body, as the roll
+probe; Earth's gravity, the characterisation's mesh) at six pressures up to 0.85 of
 where that free run ended; the reduced model runs the same pressures with ``self_contact`` = 1 (a
 prediction: the weight and the contact together, which no run it reads had) and without it. Prints the
 worst and mean tip miss (% of the length) of each and the FE's bend beside the two models'.
 
-    .venv/bin/python benchmarks/rom_contact.py [TEMPLATE...] [--write-test-data]
+    .venv/bin/python benchmarks/rom_contact.py [TEMPLATE...] [--orientations ...] [--write-test-data]
 
 ``--write-test-data`` writes the first template's FE steps, both orientations, to ``tests/data/`` (what
 ``tests/test_rom.py`` checks the reduced model against, without an FE run).
