@@ -78,9 +78,10 @@ def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa
     nodes are identified with the rod under the rolled weight (the chambers-down compliance: the rolled weight
     opens the bend; :func:`downward_probe` first); carried on through
     :data:`~pnmold.physics.roll.ROLL_PROBE_SHARES` of the free run's last pressure (as far as the FE goes), its
-    tips there give the stiffening (:func:`roll_stiffening`). FE, a few minutes; once, cached."""
+    tips at the pressures asked for give the stiffening (:func:`roll_stiffening`; where the FE stopped short, a
+    critical point, is kept aside as ``probe_roll["stopped"]``). FE, a few minutes; once, cached."""
     from pnmold.design_fe import run_fe
-    from pnmold.physics.roll import ROLL_PROBE_G, ROLL_PROBE_SHARES, section_rolls
+    from pnmold.physics.roll import NO_STIFFENING, ROLL_PROBE_G, ROLL_PROBE_SHARES, section_rolls
 
     size = replace(size or DEFAULT_SIZE, half=True)
     result = downward_probe(design, size=size, max_pressure_kpa=max_pressure_kpa, progress=progress)
@@ -103,7 +104,7 @@ def roll_probe(design: Design, *, size: MeshSize | None = None, max_pressure_kpa
     doc = {"tip_x_mm": rest.tip_x_mm, "tip_z_mm": rest.tip_z_mm, "bend_angle_deg": rest.bend_angle_deg,
            "node_roll_deg": np.degrees(node_roll).tolist(), "pressed": []}
     result = replace(result, roll_compliance_rad_per_n_mm=roll, probe_roll_gravity_g=ROLL_PROBE_G, probe_roll=doc,
-                     roll_stiffening={"pressure_kpa": [], "factor": []})
+                     roll_stiffening=NO_STIFFENING)
     if len(steps) > 1 and len(shapes) == len(steps):
         # only the pressures asked for: a state where the FE stopped short (a critical point: its response
         # to the weight turns singular there, which no factor on a model without that point stands in for)
@@ -130,14 +131,13 @@ def roll_stiffening(design: Design, result: Characterisation) -> dict:
     feels the roll, the model's other misfit reads no stiffening into it). A body that hardly rolls: an empty
     table (no stiffening)."""
     from pnmold.physics.protocol import Protocol
-    from pnmold.physics.roll import ROLL_STIFFENING_BOUNDS, ROLL_STIFFENING_COST_SHARE
+    from pnmold.physics.roll import NO_STIFFENING, ROLL_STIFFENING_BOUNDS, ROLL_STIFFENING_COST_SHARE
     from pnmold.physics.rom import MIN_ROLL_DEG, ReducedModel
 
-    none = {"pressure_kpa": [], "factor": []}
     probe = result.probe_roll or {}
     pressed = probe.get("pressed") or []
     if not pressed or max(np.abs(probe["node_roll_deg"])) < MIN_ROLL_DEG:
-        return none
+        return NO_STIFFENING
     p = np.array([s["pressure_kpa"] for s in pressed])
     fe = np.array([[s["tip_x_mm"], s["tip_z_mm"]] for s in pressed])
     protocol = Protocol("bending", p, "horizontal")

@@ -43,8 +43,9 @@ the model with the compliance of rest gave 29.2, 24.7, 18.8 and 10.3, and its ti
 the FE's. The torsional stiffness changes with the pressure (likely the walls' tension under pressure resisting
 the twist, as an axial pull stiffens a twisted bar: not shown). The model reads it from the same probe carried
 on through the range (:data:`ROLL_PROBE_SHARES` of the free run's last pressure): at each pressed state, the
-factor on the torsional stiffness that brings the model's tip nearest the FE's (:func:`pnmold.physics.probes.
-roll_stiffening`), linear in the effective pressure between them and held beyond the last (:func:`stiffened`;
+factor on the torsional stiffness that brings the model's tip nearest the FE's
+(:func:`pnmold.physics.probes.roll_stiffening`), linear in the effective pressure between them and held beyond
+the last (:func:`stiffened`;
 the batch's stiffness factor divides the pressure as it multiplies the stiffness; never read past what the FE
 solved). Read from the tips, the factor also carries what else of the rolled sag the model leaves out.
 
@@ -91,6 +92,8 @@ ROLL_STIFFENING_BOUNDS = (0.5, 5.0)
 #: a factor away from 1 costs, in reading it, as a tip miss of this share of the length per e-fold (assumed: where
 #: the tip hardly feels the roll, the model's other misfit of a few tenths of a millimetre reads no stiffening)
 ROLL_STIFFENING_COST_SHARE = 0.005
+#: the stiffening table of a body read with none (it hardly rolls, or no pressed state was reached)
+NO_STIFFENING = {"pressure_kpa": (), "factor": ()}
 #: the fixed point between shape and roll: at most this many iterations to this change of roll (rad). More
 #: roll sags the body toward its chambers, which lengthens the weight's lever and rolls it more: from no roll
 #: the iteration climbs to the nearest equilibrium (24 iterations on a 10-chamber Elastosil fPN held
