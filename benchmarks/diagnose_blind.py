@@ -36,10 +36,13 @@ and said, as is one whose recording holds rest rows only.
 
     .venv/bin/python benchmarks/diagnose_blind.py [--per-effect 8] [--null 20] [--seed 1]
         [--out out/blind] [--source auto|rom] [--jobs 2] [--random-designs 2] [--batches 2] [--rescore]
+        [--only IDS]
 
 A case whose bending recording holds fewer than three distinct pressures (its solve ended at rest,
 e.g. a batch that cannot be pressurised in its orientation under its own weight) is said and left out.
-``--rescore`` scores a finished run's ``results.json`` again.
+``--rescore`` scores a finished run's ``results.json`` again. ``--only case_006,case_024`` makes,
+diagnoses and scores only those cases of the same draw (every batch is still characterised: the draw
+reads their curves), to look into a few cases without the whole run.
 
 An interrupted run resumes: designs, batches and recordings already written are kept (and the FE's
 characterisations are cached). The summary adds the scores per design (template or random), per
@@ -496,10 +499,15 @@ def prepare(out: Path, seed: int, jobs: int, n_random: int, n_batches: int) -> d
 
 
 def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: int, n_random: int,
-        n_batches: int) -> dict:
+        n_batches: int, only: set[str] | None = None) -> dict:
     data, key_dir = out / "cases", out / "key"
     batches = prepare(out, seed, jobs, n_random, n_batches)
     cases = draw_cases(per_effect, n_null, seed, source, batches)
+    if only:  # the same draw, only these cases made, diagnosed and scored
+        unknown = only - {c.id for c in cases}
+        if unknown:
+            sys.exit(f"--only: no such case in this draw: {', '.join(sorted(unknown))}")
+        cases = [c for c in cases if c.id in only]
     # generate in single-threaded worker processes (the FE cases dominate: one per core)
     with _one_thread(), ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         cases = kept(list(pool.map(_make, cases, [data] * len(cases), [key_dir] * len(cases))), data)
@@ -535,6 +543,8 @@ def main() -> None:
     parser.add_argument("--random-designs", type=int, default=2)
     parser.add_argument("--batches", type=int, default=2)
     parser.add_argument("--rescore", action="store_true", help="score the results.json of --out again")
+    parser.add_argument("--only", metavar="IDS", help="comma-separated case ids (e.g. case_006,case_024): the same "
+                        "draw, only these made, diagnosed and scored (results.json then holds only these)")
     args = parser.parse_args()
     t0 = time.perf_counter()
     if args.rescore:
@@ -542,8 +552,9 @@ def main() -> None:
         cases = kept([Case(**k) for k in saved["key"]], args.out / "cases")
         print(score_text(score(cases, saved["results"])))
         return
+    only = {c.strip() for c in args.only.split(",") if c.strip()} if args.only else None
     s = score_text(run(args.per_effect, args.null, args.seed, args.out, args.source, args.jobs,
-                       args.random_designs, args.batches))
+                       args.random_designs, args.batches, only))
     print(s)
     print(f"total {time.perf_counter() - t0:.0f} s")
 
