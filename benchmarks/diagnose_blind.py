@@ -42,7 +42,8 @@ A case whose bending recording holds fewer than three distinct pressures (its so
 e.g. a batch that cannot be pressurised in its orientation under its own weight) is said and left out.
 ``--rescore`` scores a finished run's ``results.json`` again. ``--only case_006,case_024`` makes,
 diagnoses and scores only those cases of the same draw (every batch is still characterised: the draw
-reads their curves), to look into a few cases without the whole run.
+reads their curves), to look into a few cases without the whole run; their results go to
+``results-only.json``, beside a whole run's ``results.json``.
 
 An interrupted run resumes: designs, batches and recordings already written are kept (and the FE's
 characterisations are cached). The summary adds the scores per design (template or random), per
@@ -528,7 +529,9 @@ def run(per_effect: int, n_null: int, seed: int, out: Path, source: str, jobs: i
 
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         results = dict(pool.map(one, cases))
-    write_json(out / "results.json", {"results": results, "key": [asdict(c) for c in cases]})
+    # a subset is written beside a whole run's results, never over them
+    write_json(out / ("results-only.json" if only else "results.json"),
+               {"results": results, "key": [asdict(c) for c in cases]})
     return score(cases, results)
 
 
@@ -544,7 +547,8 @@ def main() -> None:
     parser.add_argument("--batches", type=int, default=2)
     parser.add_argument("--rescore", action="store_true", help="score the results.json of --out again")
     parser.add_argument("--only", metavar="IDS", help="comma-separated case ids (e.g. case_006,case_024): the same "
-                        "draw, only these made, diagnosed and scored (results.json then holds only these)")
+                        "draw, only these made, diagnosed and scored (into results-only.json; a whole "
+                        "run's results.json is kept)")
     args = parser.parse_args()
     t0 = time.perf_counter()
     if args.rescore:
