@@ -27,7 +27,9 @@ LADDER_POINTS = 61
 #: reaches for the cheap straight line, on the ribbed segment's P-V 45 % past the end). The one law the
 #: reduced model still reads past the FE's last solved step (issue 43): cut at the end, the real segment's
 #: diagnosis (tests/test_real_segment.py) loses its Boyle-consistent air column and its one C30 for two
-#: recordings, so it is kept, flagged ``beyond_fe`` and said, until the FE's runs go past the bifurcation
+#: recordings, so it is kept, flagged ``beyond_fe`` and said, until the FE's runs go past the bifurcation.
+#: The FE does not bear the 10 % out: the runs end where their pressure flattens, and a switch onto the path
+#: past the first critical point (tried on the segment, benchmarks/README.md) gave at most 2.5 % more
 LADDER_EXTRAPOLATION = 0.1
 
 
